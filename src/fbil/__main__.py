@@ -1,0 +1,3 @@
+from fbil.cli import main
+
+raise SystemExit(main())

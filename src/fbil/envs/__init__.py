@@ -1,0 +1,34 @@
+"""Environments: the four DMC domains, their 21 tasks, relabeling and batched rollouts.
+
+MuJoCo renders headless through EGL by default here; set MUJOCO_GL yourself to override
+(`osmesa` for software rendering, `disable` when never rendering).
+"""
+
+import os
+
+os.environ.setdefault("MUJOCO_GL", "egl")
+
+from fbil.envs.base import DomainSpec, TaskSpec  # noqa: E402
+from fbil.envs.env import FbilEnv, make_env  # noqa: E402
+from fbil.envs.registry import DOMAINS, all_tasks, get_domain, get_task  # noqa: E402
+from fbil.envs.relabel import compute_quantities, relabel, task_reward  # noqa: E402
+from fbil.envs.rollout import BatchedEnv, Episodes, Policy, RandomPolicy, rollout  # noqa: E402
+
+__all__ = [
+    "DOMAINS",
+    "BatchedEnv",
+    "DomainSpec",
+    "Episodes",
+    "FbilEnv",
+    "Policy",
+    "RandomPolicy",
+    "TaskSpec",
+    "all_tasks",
+    "compute_quantities",
+    "get_domain",
+    "get_task",
+    "make_env",
+    "relabel",
+    "rollout",
+    "task_reward",
+]

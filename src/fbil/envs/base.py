@@ -1,0 +1,76 @@
+"""What a domain and a task are.
+
+A *domain* is one MuJoCo model plus the dm_control task object that draws its initial
+states and builds its observations. A *task* is only a reward: a vectorised function of a
+few physical quantities that the domain reads off a physics state (and the applied
+control). Splitting it this way makes every reward computable after the fact, from stored
+physics states, for any dataset: online stepping and offline relabeling call the very same
+function on the very same quantities.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+# Named arrays, one row per state: shape (N,) or (N, k).
+Quantities = dict[str, np.ndarray]
+RewardFn = Callable[[Quantities], np.ndarray]
+
+
+@dataclass(frozen=True)
+class TaskSpec:
+    """One reward over a domain's quantities."""
+
+    name: str
+    reward: RewardFn
+    description: str
+    source: str  # "dm_control" or the custom suite the definition follows
+    # Only for pictures of the maze: the goal and the route the reward asks for.
+    goal: tuple[float, float] | None = None
+    path: tuple[tuple[float, float], ...] | None = None
+
+
+@dataclass(frozen=True)
+class DomainSpec:
+    """A physical system shared by several tasks."""
+
+    name: str
+    obs_dim: int
+    act_dim: int
+    physics_dim: int
+    control_timestep: float
+    # name -> trailing shape of the quantity (() for scalars)
+    quantity_shapes: Mapping[str, tuple[int, ...]]
+    tasks: Mapping[str, TaskSpec]
+    # rng -> (physics, dm_control task drawing initial states and observations)
+    build: Callable[[np.random.RandomState], tuple[Any, Any]]
+    # physics -> this state's quantities, each of its trailing shape
+    read_quantities: Callable[[Any], dict[str, np.ndarray | float]]
+    episode_length: int = 1000
+    camera_id: int = 0
+    extra: Mapping[str, Any] = field(default_factory=dict)
+
+    @property
+    def task_names(self) -> list[str]:
+        return list(self.tasks)
+
+
+def linear_tolerance(
+    x: np.ndarray, low: float, high: float, margin: float, value_at_margin: float = 0.0
+) -> np.ndarray:
+    """dm_control's `rewards.tolerance` with a linear sigmoid, on arrays."""
+    from dm_control.utils import rewards
+
+    return np.asarray(
+        rewards.tolerance(
+            x,
+            bounds=(low, high),
+            margin=margin,
+            value_at_margin=value_at_margin,
+            sigmoid="linear",
+        )
+    )

@@ -1,0 +1,77 @@
+"""quadruped: dm_control's four-legged ant (walk, run) plus stand and jump."""
+
+from __future__ import annotations
+
+import logging
+from typing import Any
+
+import numpy as np
+from dm_control.suite import common, quadruped
+
+from fbil.envs.base import DomainSpec, Quantities, TaskSpec, linear_tolerance
+
+WALK_SPEED, RUN_SPEED = 0.5, 5.0
+JUMP_HEIGHT = 1.0
+INF = float("inf")
+FLOOR_SIZE = 10  # dm_control's walk floor; the floor is a plane, its size only shows
+
+
+def _build(rng: np.random.RandomState) -> tuple[Any, Any]:
+    # dm_control's quadruped.xml uses an attribute newer MuJoCo warns about at every
+    # compile; the warning says nothing actionable to fbil users.
+    absl_logger = logging.getLogger("absl")
+    level = absl_logger.level
+    absl_logger.setLevel(logging.ERROR)
+    try:
+        physics = quadruped.Physics.from_xml_string(
+            quadruped.make_model(floor_size=FLOOR_SIZE), common.ASSETS
+        )
+    finally:
+        absl_logger.setLevel(level)
+    return physics, quadruped.Move(desired_speed=WALK_SPEED, random=rng)
+
+
+def _read(physics: Any) -> dict[str, np.ndarray | float]:
+    return {
+        "torso_upright": float(physics.torso_upright()),
+        "torso_velocity": np.asarray(physics.torso_velocity(), dtype=np.float64),
+        "com_height": float(physics.named.data.sensordata["center_of_mass"][2]),
+    }
+
+
+def _upright(q: Quantities) -> np.ndarray:
+    # 1 when the torso's z axis points up, falling linearly to 0 upside down.
+    return linear_tolerance(q["torso_upright"], 1.0, INF, 2.0, 0.0)
+
+
+def _move(speed: float) -> Any:
+    def reward(q: Quantities) -> np.ndarray:
+        return _upright(q) * linear_tolerance(q["torso_velocity"][:, 0], speed, INF, speed, 0.5)
+
+    return reward
+
+
+def _jump(q: Quantities) -> np.ndarray:
+    return _upright(q) * linear_tolerance(q["com_height"], JUMP_HEIGHT, INF, JUMP_HEIGHT, 0.5)
+
+
+_CUSTOM = "URLB/offline_rl quadruped"
+_TASKS = [
+    TaskSpec("stand", _upright, "keep the torso upright", _CUSTOM),
+    TaskSpec("walk", _move(WALK_SPEED), "move forward at >= 0.5 m/s while upright", "dm_control"),
+    TaskSpec("run", _move(RUN_SPEED), "move forward at >= 5 m/s while upright", "dm_control"),
+    TaskSpec("jump", _jump, "raise the centre of mass to >= 1 m while upright", _CUSTOM),
+]
+
+DOMAIN = DomainSpec(
+    name="quadruped",
+    obs_dim=78,
+    act_dim=12,
+    physics_dim=57,
+    control_timestep=0.02,
+    quantity_shapes={"torso_upright": (), "torso_velocity": (3,), "com_height": ()},
+    tasks={t.name: t for t in _TASKS},
+    build=_build,
+    read_quantities=_read,
+    camera_id=2,
+)
