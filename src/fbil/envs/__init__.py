@@ -8,11 +8,11 @@ import os
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
-from fbil.envs.base import DomainSpec, TaskSpec  # noqa: E402
-from fbil.envs.env import FbilEnv, make_env  # noqa: E402
-from fbil.envs.registry import DOMAINS, all_tasks, get_domain, get_task  # noqa: E402
-from fbil.envs.relabel import compute_quantities, relabel, task_reward  # noqa: E402
-from fbil.envs.rollout import BatchedEnv, Episodes, Policy, RandomPolicy, rollout  # noqa: E402
+from fbil.envs.base import DomainSpec, TaskSpec
+from fbil.envs.env import FbilEnv, make_env
+from fbil.envs.registry import DOMAINS, all_tasks, get_domain, get_task
+from fbil.envs.relabel import compute_quantities, relabel, task_reward
+from fbil.envs.rollout import BatchedEnv, Episodes, Policy, RandomPolicy, rollout
 
 __all__ = [
     "DOMAINS",

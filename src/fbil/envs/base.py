@@ -10,7 +10,9 @@ function on the very same quantities.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+import contextlib
+import logging
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -74,3 +76,16 @@ def linear_tolerance(
             sigmoid="linear",
         )
     )
+
+
+@contextlib.contextmanager
+def quiet_model_compile() -> Iterator[None]:
+    """Silence absl warnings while compiling dm_control's XML: newer MuJoCo warns about a
+    deprecated attribute at every compile, which tells fbil users nothing they can act on."""
+    logger = logging.getLogger("absl")
+    level = logger.level
+    logger.setLevel(logging.ERROR)
+    try:
+        yield
+    finally:
+        logger.setLevel(level)

@@ -7,13 +7,14 @@ from typing import Any
 import numpy as np
 from dm_control.suite import cheetah
 
-from fbil.envs.base import DomainSpec, Quantities, TaskSpec, linear_tolerance
+from fbil.envs.base import DomainSpec, Quantities, TaskSpec, linear_tolerance, quiet_model_compile
 
 RUN_SPEED, WALK_SPEED = 10.0, 2.0
 
 
 def _build(rng: np.random.RandomState) -> tuple[Any, Any]:
-    physics = cheetah.Physics.from_xml_string(*cheetah.get_model_and_assets())
+    with quiet_model_compile():
+        physics = cheetah.Physics.from_xml_string(*cheetah.get_model_and_assets())
     return physics, cheetah.Cheetah(random=rng)
 
 

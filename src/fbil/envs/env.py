@@ -20,9 +20,7 @@ from fbil.errors import FbilError
 def stack_quantities(domain: DomainSpec, rows: list[dict[str, Any]]) -> Quantities:
     """List of per-state readings -> one array per quantity, shape (N, *shape)."""
     return {
-        name: np.asarray([row[name] for row in rows], dtype=np.float64).reshape(
-            (len(rows), *shape)
-        )
+        name: np.asarray([row[name] for row in rows], dtype=np.float64).reshape((len(rows), *shape))
         for name, shape in domain.quantity_shapes.items()
     }
 
@@ -88,7 +86,7 @@ class FbilEnv(gym.Env[np.ndarray, np.ndarray]):
         info = {"physics": self.physics.get_state(), "step": self._t}
         return self._observe(), reward, False, truncated, info
 
-    def render(self) -> np.ndarray:  # type: ignore[override]
+    def render(self) -> np.ndarray:
         h, w = self._render_size
         return np.asarray(self.physics.render(h, w, camera_id=self.domain.camera_id))
 

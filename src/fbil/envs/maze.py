@@ -83,7 +83,7 @@ def maze_xml(goal: tuple[float, float] | None = None) -> str:
     )
 
 
-class _MazeInit(base.Task):  # type: ignore[misc]
+class _MazeInit(base.Task):
     """Draws the start state from the task's own RNG and builds observations."""
 
     def initialize_episode(self, physics: Any) -> None:
@@ -167,8 +167,12 @@ def _loop(q: Quantities) -> np.ndarray:
     vx, vy = q["velocity"][:, 0], q["velocity"][:, 1]
     left, top = x <= 0, y >= 0
     # Clockwise: +x on the top half, -x on the bottom; +y on the left half, -y on the right.
-    vx_rew = np.where(top, linear_tolerance(vx, 0.06, 0.1, 0.01), linear_tolerance(vx, -0.1, -0.06, 0.01))
-    vy_rew = np.where(left, linear_tolerance(vy, 0.06, 0.1, 0.01), linear_tolerance(vy, -0.1, -0.06, 0.01))
+    vx_rew = np.where(
+        top, linear_tolerance(vx, 0.06, 0.1, 0.01), linear_tolerance(vx, -0.1, -0.06, 0.01)
+    )
+    vy_rew = np.where(
+        left, linear_tolerance(vy, 0.06, 0.1, 0.01), linear_tolerance(vy, -0.1, -0.06, 0.01)
+    )
     # Edge of the diamond in this quadrant: |a x + b y + c| / sqrt(2) with b = -1.
     a = np.where(left == top, 1.0, -1.0)
     c = np.where(top, 0.24, -0.24)
@@ -214,8 +218,13 @@ _GOALS = {
     "reach_bottom_right": (0.15, -0.15),
 }
 _TASKS = [
-    TaskSpec(name, _reach(goal), f"reach the centre of the {name[6:].replace('_', '-')} room",
-             _CUSTOM, goal=goal)
+    TaskSpec(
+        name,
+        _reach(goal),
+        f"reach the centre of the {name[6:].replace('_', '-')} room",
+        _CUSTOM,
+        goal=goal,
+    )
     for name, goal in _GOALS.items()
 ]
 _TASKS += [

@@ -2,13 +2,12 @@
 
 from __future__ import annotations
 
-import logging
 from typing import Any
 
 import numpy as np
 from dm_control.suite import common, quadruped
 
-from fbil.envs.base import DomainSpec, Quantities, TaskSpec, linear_tolerance
+from fbil.envs.base import DomainSpec, Quantities, TaskSpec, linear_tolerance, quiet_model_compile
 
 WALK_SPEED, RUN_SPEED = 0.5, 5.0
 JUMP_HEIGHT = 1.0
@@ -17,17 +16,10 @@ FLOOR_SIZE = 10  # dm_control's walk floor; the floor is a plane, its size only 
 
 
 def _build(rng: np.random.RandomState) -> tuple[Any, Any]:
-    # dm_control's quadruped.xml uses an attribute newer MuJoCo warns about at every
-    # compile; the warning says nothing actionable to fbil users.
-    absl_logger = logging.getLogger("absl")
-    level = absl_logger.level
-    absl_logger.setLevel(logging.ERROR)
-    try:
+    with quiet_model_compile():
         physics = quadruped.Physics.from_xml_string(
             quadruped.make_model(floor_size=FLOOR_SIZE), common.ASSETS
         )
-    finally:
-        absl_logger.setLevel(level)
     return physics, quadruped.Move(desired_speed=WALK_SPEED, random=rng)
 
 

@@ -15,9 +15,7 @@ def get_domain(name: str) -> DomainSpec:
     try:
         return DOMAINS[name]
     except KeyError:
-        raise FbilError(
-            f"unknown domain {name!r}; valid domains: {', '.join(DOMAINS)}"
-        ) from None
+        raise FbilError(f"unknown domain {name!r}; valid domains: {', '.join(DOMAINS)}") from None
 
 
 def get_task(domain: str, task: str) -> TaskSpec:

@@ -8,7 +8,7 @@ import numpy as np
 from dm_control.suite import walker
 from dm_control.utils import rewards
 
-from fbil.envs.base import DomainSpec, Quantities, TaskSpec, linear_tolerance
+from fbil.envs.base import DomainSpec, Quantities, TaskSpec, linear_tolerance, quiet_model_compile
 
 STAND_HEIGHT = 1.2  # dm_control's walker: torso height above which standing pays 1
 WALK_SPEED, RUN_SPEED = 1.0, 8.0
@@ -17,7 +17,8 @@ INF = float("inf")
 
 
 def _build(rng: np.random.RandomState) -> tuple[Any, Any]:
-    physics = walker.Physics.from_xml_string(*walker.get_model_and_assets())
+    with quiet_model_compile():
+        physics = walker.Physics.from_xml_string(*walker.get_model_and_assets())
     return physics, walker.PlanarWalker(move_speed=0, random=rng)
 
 

@@ -1,0 +1,125 @@
+"""The `fbil` command line: a thin layer over the library.
+
+Every command that prints figures also takes `--json` and then prints one JSON object on
+stdout. User mistakes end in one line on stderr and exit code 2, never a traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+from fbil import __version__
+from fbil.errors import FbilError
+
+Command = Callable[[argparse.Namespace], int]
+
+
+def _cmd_tasks(args: argparse.Namespace) -> int:
+    from fbil.envs import DOMAINS
+
+    if args.json:
+        payload = {
+            "domains": {
+                d.name: {
+                    "obs_dim": d.obs_dim,
+                    "act_dim": d.act_dim,
+                    "physics_dim": d.physics_dim,
+                    "episode_length": d.episode_length,
+                    "tasks": d.task_names,
+                }
+                for d in DOMAINS.values()
+            }
+        }
+        print(json.dumps(payload))
+        return 0
+    n = sum(len(d.tasks) for d in DOMAINS.values())
+    print(f"{len(DOMAINS)} domains, {n} tasks (episodes of 1000 steps, actions in [-1, 1])\n")
+    for d in DOMAINS.values():
+        print(f"{d.name}  obs {d.obs_dim}  act {d.act_dim}")
+        for t in d.tasks.values():
+            print(f"  {t.name:<24} {t.description}  [{t.source}]")
+    return 0
+
+
+def _cmd_render(args: argparse.Namespace) -> int:
+    from fbil.envs import RandomPolicy, get_domain, get_task, rollout
+    from fbil.envs.render import (
+        ANIMATION_SUFFIXES,
+        IMAGE_SUFFIXES,
+        locomotion_frames,
+        plot_maze_trajectories,
+        save_frames,
+    )
+
+    spec = get_domain(args.domain)
+    get_task(args.domain, args.task)
+    if args.policy != "random":
+        raise FbilError(f"unknown policy {args.policy!r}; valid policies: random")
+    suffix = Path(args.out).suffix.lower()
+    if suffix not in IMAGE_SUFFIXES + ANIMATION_SUFFIXES:
+        raise FbilError(
+            f"unsupported picture type {suffix or '(none)'!r} for {args.out}; use one of "
+            f"{', '.join(IMAGE_SUFFIXES + ANIMATION_SUFFIXES)}"
+        )
+    policy = RandomPolicy(spec.act_dim, seed=args.seed)
+    if spec.name == "point_mass_maze":
+        if suffix not in IMAGE_SUFFIXES:
+            raise FbilError("maze pictures are images: use .png, .pdf, .svg or .jpg")
+        seeds = list(range(args.seed, args.seed + args.episodes))
+        episodes = rollout(spec.name, args.task, policy, seeds, args.steps)
+        plot_maze_trajectories(list(episodes.observation), args.out, task=args.task)
+        returns = episodes.returns.tolist()
+    else:
+        steps = args.steps or 250
+        n_frames = args.frames if suffix in IMAGE_SUFFIXES else steps // 2 + 1
+        frames = locomotion_frames(spec.name, args.task, policy, args.seed, steps, n_frames)
+        save_frames(frames, args.out)
+        returns = []
+    if args.json:
+        print(json.dumps({"out": str(args.out), "returns": returns}))
+    else:
+        print(f"wrote {args.out}")
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="fbil",
+        description="Fast imitation learning with forward-backward behavior foundation models.",
+    )
+    parser.add_argument("--version", action="version", version=f"fbil {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    p = sub.add_parser("tasks", help="list domains, tasks and their sizes")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=_cmd_tasks)
+
+    p = sub.add_parser("render", help="picture of a policy acting in a task")
+    p.add_argument("domain")
+    p.add_argument("task")
+    p.add_argument("--policy", default="random", help="policy to roll out (default: random)")
+    p.add_argument("--out", required=True, help="maze: .png/.pdf/.svg; others also .gif/.mp4")
+    p.add_argument("--episodes", type=int, default=5, help="maze: trajectories drawn")
+    p.add_argument("--steps", type=int, default=None, help="steps per episode")
+    p.add_argument("--frames", type=int, default=8, help="locomotion strip: frames shown")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=_cmd_render)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    command: Command = args.func
+    try:
+        return command(args)
+    except FbilError as exc:
+        print(f"fbil: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("fbil: interrupted", file=sys.stderr)
+        return 130

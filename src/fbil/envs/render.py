@@ -1,0 +1,159 @@
+"""Pictures: the maze seen from above with trajectories, locomotion as frames.
+
+Maze figures are drawn with matplotlib from the same geometry constants the MJCF is built
+from; locomotion frames come from MuJoCo's offscreen renderer (MUJOCO_GL=egl headless).
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from fbil.envs import maze
+from fbil.envs.registry import get_task
+from fbil.envs.rollout import BatchedEnv, Policy
+from fbil.errors import FbilError
+
+IMAGE_SUFFIXES = (".png", ".pdf", ".svg", ".jpg")
+ANIMATION_SUFFIXES = (".gif", ".mp4")
+
+
+def _pyplot() -> Any:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def draw_maze(ax: Any, task: str | None = None) -> None:
+    """Walls, rooms and (if a task is given) its goal or route, on a matplotlib axis."""
+    from matplotlib.patches import Circle, Rectangle
+
+    a, t, arm = maze.ARENA_HALF, maze.WALL_HALF_THICKNESS, maze.ARM_HALF_LENGTH
+    wall: dict[str, Any] = {"color": "#3b4252", "zorder": 3}
+    for x, y, w, h in (
+        (-a - 2 * t, -a - 2 * t, 2 * t, 2 * a + 4 * t),
+        (a, -a - 2 * t, 2 * t, 2 * a + 4 * t),
+        (-a, -a - 2 * t, 2 * a, 2 * t),
+        (-a, a, 2 * a, 2 * t),
+        (-arm, -t, 2 * arm, 2 * t),
+        (-t, -arm, 2 * t, 2 * arm),
+    ):
+        ax.add_patch(Rectangle((x, y), w, h, **wall))
+    ax.add_patch(Rectangle((-a, -a), 2 * a, 2 * a, color="#eceff4", zorder=0))
+    if task is not None:
+        spec = get_task("point_mass_maze", task)
+        if spec.path is not None:
+            path = np.asarray(spec.path)
+            ax.plot(path[:, 0], path[:, 1], "--", color="#d08770", lw=1.5, zorder=1)
+            for p, q in itertools.pairwise(path):
+                mid = (p + q) / 2
+                ax.annotate(
+                    "",
+                    xy=mid + (q - p) * 0.05,
+                    xytext=mid - (q - p) * 0.05,
+                    arrowprops={"arrowstyle": "->", "color": "#d08770", "lw": 1.5},
+                    zorder=1,
+                )
+        if spec.goal is not None:
+            ax.add_patch(Circle(spec.goal, 0.02, color="#bf616a", zorder=4, alpha=0.8))
+        ax.set_title(f"point_mass_maze / {task}", fontsize=10)
+    m = a + 2 * t
+    ax.set_xlim(-m, m)
+    ax.set_ylim(-m, m)
+    ax.set_aspect("equal")
+    ax.set_xticks([])
+    ax.set_yticks([])
+
+
+def plot_maze_trajectories(
+    trajectories: Sequence[np.ndarray],
+    out: str | Path,
+    task: str | None = None,
+    labels: Sequence[str] | None = None,
+) -> Path:
+    """Save a top-down figure of (T, >=2) x-y trajectories over the maze walls."""
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(4.5, 4.5), dpi=120)
+    draw_maze(ax, task)
+    cmap = plt.get_cmap("tab10")
+    for i, traj in enumerate(trajectories):
+        xy = np.asarray(traj)[:, :2]
+        label = labels[i] if labels is not None else None
+        ax.plot(xy[:, 0], xy[:, 1], color=cmap(i % 10), lw=1.0, alpha=0.85, zorder=2, label=label)
+        ax.plot(*xy[0], "o", color=cmap(i % 10), ms=4, zorder=5)
+    if labels is not None:
+        ax.legend(fontsize=7, loc="upper right", framealpha=0.8)
+    return _save(fig, out)
+
+
+def _save(fig: Any, out: str | Path) -> Path:
+    out = Path(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = out.with_name(f".{out.name}.tmp{out.suffix}")
+    fig.savefig(tmp, bbox_inches="tight")
+    _pyplot().close(fig)
+    tmp.replace(out)  # never leave a half-written picture behind
+    return out
+
+
+def locomotion_frames(
+    domain: str,
+    task: str,
+    policy: Policy,
+    seed: int,
+    steps: int,
+    n_frames: int,
+    size: tuple[int, int] = (240, 320),
+) -> list[np.ndarray]:
+    """Roll out one episode and render `n_frames` evenly spaced frames of it."""
+    batch = BatchedEnv(domain, task, 1)
+    episodes = batch.rollout(policy, [seed], steps)
+    env = batch.envs[0]
+    env._render_size = size
+    picks = np.linspace(0, steps, n_frames).round().astype(int)
+    frames = []
+    for t in picks:
+        env.set_physics_state(episodes.physics[0, t])
+        frames.append(env.render())
+    return frames
+
+
+def save_frames(frames: list[np.ndarray], out: str | Path, fps: int = 20) -> Path:
+    """A strip of frames as an image, or an animation for .gif / .mp4."""
+    out = Path(out)
+    suffix = out.suffix.lower()
+    if suffix in IMAGE_SUFFIXES:
+        plt = _pyplot()
+        fig, axes = plt.subplots(1, len(frames), figsize=(2.2 * len(frames), 2), dpi=120)
+        for ax, frame in zip(np.atleast_1d(axes), frames, strict=True):
+            ax.imshow(frame)
+            ax.axis("off")
+        fig.subplots_adjust(wspace=0.02, left=0, right=1, top=1, bottom=0)
+        return _save(fig, out)
+    if suffix in ANIMATION_SUFFIXES:
+        import imageio.v2 as imageio
+
+        out.parent.mkdir(parents=True, exist_ok=True)
+        tmp = out.with_name(f".{out.name}.tmp{suffix}")
+        try:
+            options: dict[str, Any] = {"duration": 1000 / fps} if suffix == ".gif" else {}
+            imageio.mimsave(str(tmp), list[Any](frames), **options)
+        except Exception as exc:  # mp4 needs imageio-ffmpeg
+            tmp.unlink(missing_ok=True)
+            raise FbilError(
+                f"cannot write {out.name}: {exc}; write a .gif or .png, or pip install "
+                "imageio-ffmpeg for .mp4"
+            ) from None
+        tmp.replace(out)
+        return out
+    raise FbilError(
+        f"unsupported picture type {suffix!r} for {out}; use one of "
+        f"{', '.join(IMAGE_SUFFIXES + ANIMATION_SUFFIXES)}"
+    )
