@@ -101,7 +101,12 @@ class FbilEnv(gym.Env[np.ndarray, np.ndarray]):
         return float(self.task.reward(q)[0])
 
     def set_physics_state(self, state: np.ndarray) -> np.ndarray:
-        """Put the episode in a given physics state (e.g. a shifted start); returns obs."""
+        """Put the episode in a given physics state (e.g. a shifted start); returns obs.
+
+        Observation entries from acceleration-stage sensors (quadruped's accelerometer and
+        toe force/torque) are recomputed at this state, whereas after a normal step they lag
+        one step behind (dm_control's legacy stepping); everything else matches exactly.
+        """
         state = np.asarray(state, dtype=np.float64)
         if state.shape != (self.domain.physics_dim,) or not np.all(np.isfinite(state)):
             raise FbilError(

@@ -1,0 +1,60 @@
+"""The command line as a user runs it: a real subprocess, real files."""
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from tests.envs.test_registry import EXPECTED
+
+
+def fbil(*args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "fbil", *args], capture_output=True, text=True, timeout=300
+    )
+
+
+def test_tasks_json_lists_the_21_tasks_with_sizes() -> None:
+    res = fbil("tasks", "--json")
+    assert res.returncode == 0, res.stderr
+    domains = json.loads(res.stdout)["domains"]
+    assert {d: (v["obs_dim"], v["act_dim"], v["tasks"]) for d, v in domains.items()} == EXPECTED
+
+
+def test_tasks_table_is_readable() -> None:
+    res = fbil("tasks")
+    assert res.returncode == 0 and "21 tasks" in res.stdout and "fast_slow" in res.stdout
+
+
+@pytest.mark.parametrize(
+    "args, names",
+    [
+        (["render", "humanoid", "run", "--out", "x.png"], "point_mass_maze, walker"),
+        (["render", "walker", "backflip", "--out", "x.png"], "stand, walk, run, flip, spin"),
+        (["render", "walker", "walk", "--policy", "expert", "--out", "x.png"], "random"),
+        (["render", "walker", "walk", "--out", "x.bmp"], ".gif"),
+    ],
+)
+def test_bad_names_give_one_line_and_exit_2(args: list[str], names: str, tmp_path: Path) -> None:
+    res = fbil(*args)
+    assert res.returncode == 2
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("fbil: error:") and names in lines[0]
+    assert "Traceback" not in res.stderr
+
+
+def test_render_maze_and_locomotion(tmp_path: Path) -> None:
+    maze = tmp_path / "maze.png"
+    res = fbil(
+        "render", "point_mass_maze", "square", "--out", str(maze), "--steps", "100", "--json"
+    )
+    assert res.returncode == 0, res.stderr
+    payload = json.loads(res.stdout)
+    assert payload["out"] == str(maze) and len(payload["returns"]) == 5
+    assert maze.read_bytes()[:4] == b"\x89PNG"
+    strip = tmp_path / "cheetah.png"
+    res = fbil("render", "cheetah", "run", "--out", str(strip), "--steps", "20", "--frames", "3")
+    assert res.returncode == 0, res.stderr
+    assert strip.stat().st_size > 1000
