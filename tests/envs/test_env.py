@@ -59,7 +59,7 @@ def test_set_physics_state_round_trips_and_checks_shape() -> None:
     env.reset()
     for _ in range(5):
         _, _, _, _, info = env.step(np.zeros(12))
-    obs_after = env._observe()
+    obs_after = env.observe()
     other = make_env("quadruped", "walk", seed=1)
     other.reset()
     restored = other.set_physics_state(info["physics"])

@@ -68,23 +68,14 @@ class FbilEnv(gym.Env[np.ndarray, np.ndarray]):
             self._init_task.initialize_episode(self.physics)
         self._t = 0
         self._needs_reset = False
-        return self._observe(), {"physics": self.physics.get_state(), "step": 0}
+        return self.observe(), {"physics": self.physics.get_state(), "step": 0}
 
     def step(
         self, action: np.ndarray
     ) -> tuple[np.ndarray, SupportsFloat, bool, bool, dict[str, Any]]:
-        if self._needs_reset:
-            raise FbilError("the episode has ended (or never started): call reset() first")
-        action = self._check_action(action)
-        self._init_task.before_step(action, self.physics)
-        self.physics.step(self._n_sub_steps)
-        self._init_task.after_step(self.physics)
-        self._t += 1
-        reward = float(self.reward_now())
-        truncated = self._t >= self.domain.episode_length
-        self._needs_reset = truncated
+        truncated = self.advance(action)
         info = {"physics": self.physics.get_state(), "step": self._t}
-        return self._observe(), reward, False, truncated, info
+        return self.observe(), self.reward_now(), False, truncated, info
 
     def render(self) -> np.ndarray:
         h, w = self._render_size
@@ -94,6 +85,19 @@ class FbilEnv(gym.Env[np.ndarray, np.ndarray]):
     @property
     def step_index(self) -> int:
         return self._t
+
+    def advance(self, action: np.ndarray) -> bool:
+        """Step the physics without computing the reward (the batched engine computes all
+        environments' rewards in one vectorised call); returns whether the episode ended."""
+        if self._needs_reset:
+            raise FbilError("the episode has ended (or never started): call reset() first")
+        action = self._check_action(action)
+        self._init_task.before_step(action, self.physics)
+        self.physics.step(self._n_sub_steps)
+        self._init_task.after_step(self.physics)
+        self._t += 1
+        self._needs_reset = self._t >= self.domain.episode_length
+        return self._needs_reset
 
     def reward_now(self) -> float:
         """The task's reward at the current physics state and control."""
@@ -117,9 +121,9 @@ class FbilEnv(gym.Env[np.ndarray, np.ndarray]):
             self.reset()
         self.physics.set_state(state)
         self.physics.forward()
-        return self._observe()
+        return self.observe()
 
-    def _observe(self) -> np.ndarray:
+    def observe(self) -> np.ndarray:
         obs = self._init_task.get_observation(self.physics)
         return np.concatenate([np.asarray(v, dtype=np.float32).ravel() for v in obs.values()])
 

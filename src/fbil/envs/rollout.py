@@ -14,8 +14,8 @@ from dataclasses import dataclass
 import numpy as np
 from tqdm.auto import tqdm
 
-from fbil.envs.env import FbilEnv
-from fbil.envs.registry import get_domain
+from fbil.envs.env import FbilEnv, stack_quantities
+from fbil.envs.registry import get_domain, get_task
 from fbil.errors import FbilError
 
 Policy = Callable[[np.ndarray, int], np.ndarray]
@@ -61,6 +61,7 @@ class BatchedEnv:
         if n < 1:
             raise FbilError(f"need at least one environment, got n={n}")
         self.spec = get_domain(domain)
+        self.task_spec = get_task(domain, task)
         self.domain, self.task = domain, task
         self.envs = [FbilEnv(domain, task) for _ in range(n)]
 
@@ -92,9 +93,13 @@ class BatchedEnv:
             phys[i, 0] = info["physics"]
         for t in tqdm(range(steps), disable=not progress, desc=f"{self.domain}/{self.task}"):
             actions = self._check(policy(obs[:, t], t), n)
+            rows = []
             for i, env in enumerate(self.envs):
-                o, r, _, _, info = env.step(actions[i])
-                obs[i, t + 1], rew[i, t], phys[i, t + 1] = o, r, info["physics"]
+                env.advance(actions[i])
+                obs[i, t + 1], phys[i, t + 1] = env.observe(), env.physics.get_state()
+                rows.append(spec.read_quantities(env.physics))
+            # One vectorised reward call for the whole batch.
+            rew[:, t] = self.task_spec.reward(stack_quantities(spec, rows))
             act[:, t] = np.clip(actions, -1.0, 1.0)
         return Episodes(self.domain, self.task, [int(s) for s in seeds], obs, act, rew, phys)
 
