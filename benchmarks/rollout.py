@@ -68,8 +68,8 @@ def main() -> None:
         task = spec.task_names[0]
         results[domain] = {}
         for name, make_policy in (
-            ("random", lambda: RandomPolicy(spec.act_dim, seed=0)),
-            ("mlp", lambda: MLPPolicy(spec.obs_dim, spec.act_dim)),
+            ("random", lambda spec=spec: RandomPolicy(spec.act_dim, seed=0)),
+            ("mlp", lambda spec=spec: MLPPolicy(spec.obs_dim, spec.act_dim)),
         ):
             # Same total env-steps for the baseline as for the largest batch.
             row = {"plain_loop": plain_loop(domain, task, make_policy(), max(sizes), args.steps)}
@@ -89,7 +89,8 @@ def main() -> None:
         for name, row in by_policy.items():
             base = row["plain_loop"]
             cells = "".join(
-                f"{row[f'batched_n{n}']:>10.0f} ({row[f'batched_n{n}'] / base:4.2f}x)" for n in sizes
+                f"{row[f'batched_n{n}']:>10.0f} ({row[f'batched_n{n}'] / base:4.2f}x)"
+                for n in sizes
             )
             print(f"{domain:<16}{name:<8}{base:>12.0f}{cells}")
 
