@@ -86,6 +86,72 @@ def _cmd_render(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_collect(args: argparse.Namespace) -> int:
+    from fbil.data.collect import collect
+    from fbil.data.rnd import RNDConfig
+
+    cfg = RNDConfig(num_envs=args.num_envs, updates_per_step=args.updates_per_step)
+    manifest = collect(
+        args.domain,
+        args.explorer,
+        args.episodes,
+        args.out,
+        seed=args.seed,
+        resume=args.resume,
+        rnd_config=cfg,
+        threads=args.threads,
+        progress=not args.json,
+        command=" ".join(["fbil", *sys.argv[1:]]),
+    )
+    if args.json:
+        print(json.dumps(manifest))
+    else:
+        print(
+            f"{manifest['episodes']} episodes of {args.domain} in {args.out} "
+            f"({manifest['wall_seconds']:.0f} s)"
+        )
+    return 0
+
+
+def _cmd_dataset_info(args: argparse.Namespace) -> int:
+    from fbil.data import load_dataset
+    from fbil.data.coverage import dataset_info, plot_coverage
+
+    dataset = load_dataset(args.dir, domain=args.domain)
+    info = dataset_info(dataset)
+    if args.plot:
+        info["plot"] = str(plot_coverage(dataset, args.plot))
+    if args.json:
+        print(json.dumps(info))
+        return 0
+    print(
+        f"{info['root']}: {info['domain']}, {info['episodes']} episodes, "
+        f"{info['transitions']} transitions"
+    )
+    norm = info["state_norm"]
+    print(
+        f"state norm: mean {norm['mean']:.3f}, std {norm['std']:.3f}, "
+        f"1-99% [{norm['p01']:.3f}, {norm['p99']:.3f}]"
+    )
+    cov = info["coverage"]
+    if info["domain"] == "point_mass_maze":
+        print(
+            f"coverage: {100 * cov['grid_fraction']:.1f}% of {cov['free_cells']} free cells "
+            f"({cov['grid']} grid); rooms visited: {', '.join(cov['rooms_visited'])}"
+        )
+        for room, frac in cov["room_fraction"].items():
+            print(f"  {room:<13} {100 * frac:5.1f}%")
+    else:
+        for name, q in cov.items():
+            if isinstance(q, dict):
+                print(
+                    f"  {name:<22} 1-99%: [{q['p01']:8.3f}, {q['p99']:8.3f}]  max {q['max']:8.3f}"
+                )
+    if args.plot:
+        print(f"plot: {info['plot']}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="fbil",
@@ -109,6 +175,25 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=_cmd_render)
+    p = sub.add_parser("collect", help="collect a reward-free dataset (ExORL layout)")
+    p.add_argument("domain")
+    p.add_argument("--explorer", default="rnd", help="rnd (default) or random")
+    p.add_argument("--episodes", type=int, required=True)
+    p.add_argument("--out", required=True, help="dataset folder (episodes go to OUT/buffer)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--resume", action="store_true", help="continue an interrupted collection")
+    p.add_argument("--num-envs", type=int, default=8, help="environments stepped in lockstep")
+    p.add_argument("--updates-per-step", type=int, default=1, help="rnd: updates per step")
+    p.add_argument("--threads", type=int, default=None, help="torch threads")
+    p.add_argument("--json", action="store_true", help="print the manifest as JSON")
+    p.set_defaults(func=_cmd_collect)
+
+    p = sub.add_parser("dataset-info", help="size, ranges and coverage of a dataset")
+    p.add_argument("dir")
+    p.add_argument("--domain", default=None, help="check the data is of this domain")
+    p.add_argument("--plot", default=None, help="write a coverage figure (PNG)")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=_cmd_dataset_info)
     return parser
 
 

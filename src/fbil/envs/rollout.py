@@ -28,7 +28,7 @@ class Episodes:
     `observation[:, t]` (so `physics[:, t + 1]` goes with `action[:, t]` for relabeling)."""
 
     domain: str
-    task: str
+    task: str | None  # None: reward-free
     seeds: list[int]
     observation: np.ndarray  # (N, T+1, obs_dim) float32
     action: np.ndarray  # (N, T, act_dim) float32
@@ -57,13 +57,15 @@ class RandomPolicy:
 class BatchedEnv:
     """N copies of one task's environment, stepped together."""
 
-    def __init__(self, domain: str, task: str, n: int) -> None:
+    def __init__(self, domain: str, task: str | None, n: int) -> None:
+        """`task=None` rolls out reward-free (rewards are all zero), e.g. for exploration."""
         if n < 1:
             raise FbilError(f"need at least one environment, got n={n}")
         self.spec = get_domain(domain)
-        self.task_spec = get_task(domain, task)
+        self.task_spec = get_task(domain, task) if task is not None else None
         self.domain, self.task = domain, task
-        self.envs = [FbilEnv(domain, task) for _ in range(n)]
+        any_task = task if task is not None else self.spec.task_names[0]
+        self.envs = [FbilEnv(domain, any_task) for _ in range(n)]
 
     def rollout(
         self,
@@ -91,15 +93,20 @@ class BatchedEnv:
                 obs[i, 0] = env.set_physics_state(start_states[i])
                 info["physics"] = env.physics.get_state()
             phys[i, 0] = info["physics"]
-        for t in tqdm(range(steps), disable=not progress, desc=f"{self.domain}/{self.task}"):
+        desc = f"{self.domain}/{self.task or 'reward-free'}"
+        for t in tqdm(range(steps), disable=not progress, desc=desc, leave=False):
             actions = self._check(policy(obs[:, t], t), n)
             rows = []
             for i, env in enumerate(self.envs):
                 env.advance(actions[i])
                 obs[i, t + 1], phys[i, t + 1] = env.observe(), env.physics.get_state()
-                rows.append(spec.read_quantities(env.physics))
+                if self.task_spec is not None:
+                    rows.append(spec.read_quantities(env.physics))
             # One vectorised reward call for the whole batch.
-            rew[:, t] = self.task_spec.reward(stack_quantities(spec, rows))
+            if self.task_spec is not None:
+                rew[:, t] = self.task_spec.reward(stack_quantities(spec, rows))
+            else:
+                rew[:, t] = 0.0
             act[:, t] = np.clip(actions, -1.0, 1.0)
         return Episodes(self.domain, self.task, [int(s) for s in seeds], obs, act, rew, phys)
 

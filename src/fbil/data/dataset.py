@@ -1,0 +1,191 @@
+"""An unsupervised dataset in memory: one contiguous float32 array per field.
+
+States of all episodes are stacked (T+1 rows each, the reset row included), so transition
+j (for every non-reset row j) is (observation[j-1], action[j], observation[j]). Physics
+states are only read when a task's rewards are first needed; the domain quantities they
+give are cached next to the data, so relabeling a dataset for another task is instant.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from fbil.data.storage import EpisodeFile, list_episodes, load_episode, read_manifest
+from fbil.envs import DOMAINS, compute_quantities, get_domain, get_task, task_reward
+from fbil.envs.base import Quantities
+from fbil.errors import FbilError
+
+
+@dataclass
+class TransitionBatch:
+    obs: np.ndarray
+    action: np.ndarray
+    next_obs: np.ndarray
+    discount: np.ndarray
+    index: np.ndarray  # row of next_obs in the dataset (for future states and physics)
+
+
+def infer_domain(obs_dim: int, act_dim: int, physics_dim: int) -> str | None:
+    for d in DOMAINS.values():
+        if (d.obs_dim, d.act_dim, d.physics_dim) == (obs_dim, act_dim, physics_dim):
+            return d.name
+    return None
+
+
+class Dataset:
+    def __init__(
+        self,
+        root: Path,
+        domain: str,
+        files: list[EpisodeFile],
+        observation: np.ndarray,
+        action: np.ndarray,
+        discount: np.ndarray,
+        episode_start: np.ndarray,
+    ) -> None:
+        self.root, self.domain, self.files = root, domain, files
+        self.observation, self.action, self.discount = observation, action, discount
+        self.episode_start = episode_start
+        n_states = len(observation)
+        self.episode_end = np.append(episode_start[1:], n_states) - 1  # inclusive
+        lengths = self.episode_end - self.episode_start + 1
+        self.state_episode_end = np.repeat(self.episode_end, lengths)
+        is_reset = np.zeros(n_states, bool)
+        is_reset[episode_start] = True
+        self.next_index = np.flatnonzero(~is_reset)
+        self._quantities: Quantities | None = None
+        self._rewards: dict[str, np.ndarray] = {}
+
+    # -- sizes -----------------------------------------------------------------------
+    @property
+    def num_episodes(self) -> int:
+        return len(self.episode_start)
+
+    @property
+    def num_transitions(self) -> int:
+        return len(self.next_index)
+
+    def __len__(self) -> int:
+        return self.num_transitions
+
+    # -- sampling --------------------------------------------------------------------
+    def sample(self, batch_size: int, rng: np.random.Generator) -> TransitionBatch:
+        j = self.next_index[rng.integers(0, self.num_transitions, batch_size)]
+        return TransitionBatch(
+            self.observation[j - 1], self.action[j], self.observation[j], self.discount[j], j
+        )
+
+    def sample_future(
+        self, index: np.ndarray, gamma: float, rng: np.random.Generator
+    ) -> np.ndarray:
+        """Rows of future states of the same episode, offset ~ Geometric(1 - gamma) - 1,
+        clipped at the episode's last state."""
+        offset = rng.geometric(1.0 - gamma, size=len(index)) - 1
+        return np.minimum(index + offset, self.state_episode_end[index])
+
+    def sample_states(self, n: int, rng: np.random.Generator) -> np.ndarray:
+        """Rows of states drawn uniformly from the whole dataset."""
+        return self.next_index[rng.integers(0, self.num_transitions, n)]
+
+    # -- rewards -----------------------------------------------------------------------
+    def physics(self) -> np.ndarray:
+        """Physics states of every row (read from disk on demand: they are large)."""
+        out = np.empty((len(self.observation), get_domain(self.domain).physics_dim))
+        for f, start, end in zip(self.files, self.episode_start, self.episode_end, strict=True):
+            out[start : end + 1] = load_episode(f.path, ("physics",))["physics"]
+        return out
+
+    def quantities(self) -> Quantities:
+        """Domain quantities of every transition (rows `next_index`), cached on disk."""
+        if self._quantities is None:
+            cache = self.root / "cache" / f"quantities_{self._fingerprint()}.npz"
+            if cache.is_file():
+                with np.load(cache) as npz:
+                    self._quantities = {k: npz[k] for k in npz.files}
+            else:
+                j = self.next_index
+                self._quantities = compute_quantities(
+                    self.domain, self.physics()[j], self.action[j]
+                )
+                try:
+                    cache.parent.mkdir(exist_ok=True)
+                    tmp = cache.with_name(f".{cache.name}.tmp.npz")
+                    np.savez(tmp, allow_pickle=False, **self._quantities)
+                    tmp.replace(cache)
+                except OSError:
+                    pass  # a read-only dataset folder just is not cached
+        return self._quantities
+
+    def reward(self, task: str) -> np.ndarray:
+        """Reward of `task` for every transition (aligned with `next_index`), float32."""
+        get_task(self.domain, task)
+        if task not in self._rewards:
+            r = task_reward(self.domain, task, self.quantities())
+            self._rewards[task] = r.astype(np.float32)
+        return self._rewards[task]
+
+    def _fingerprint(self) -> str:
+        names = "\n".join(f.path.name for f in self.files)
+        return hashlib.sha256(names.encode()).hexdigest()[:16]
+
+
+def load_dataset(
+    root: str | Path, domain: str | None = None, max_episodes: int | None = None
+) -> Dataset:
+    """Load an ExORL-layout folder (fbil's or ExORL's own). `domain`, when given, must
+    match the data; otherwise it is read from the manifest or inferred from the sizes."""
+    root = Path(root)
+    files = list_episodes(root)
+    if not files:
+        raise FbilError(
+            f"no episodes in {root}: expected files <timestamp>_<idx>_<len>.npz in "
+            f"{root / 'buffer'}"
+        )
+    if max_episodes is not None:
+        files = files[:max_episodes]
+    first = load_episode(files[0].path)
+    dims = (first["observation"].shape[1], first["action"].shape[1], first["physics"].shape[1])
+    manifest = read_manifest(root if root.name != "buffer" else root.parent) or {}
+    found = manifest.get("domain") or infer_domain(*dims)
+    if domain is not None:
+        spec = get_domain(domain)
+        if found != domain or dims != (spec.obs_dim, spec.act_dim, spec.physics_dim):
+            raise FbilError(
+                f"{root} holds {found or 'unknown'} data (obs {dims[0]}, action {dims[1]}, "
+                f"physics {dims[2]}), not {domain} (obs {spec.obs_dim}, action "
+                f"{spec.act_dim}, physics {spec.physics_dim}); pass the matching dataset"
+            )
+    elif found is None:
+        raise FbilError(
+            f"{root}: cannot tell the domain (obs {dims[0]}, action {dims[1]}, physics "
+            f"{dims[2]} match none of {', '.join(DOMAINS)}); pass the domain explicitly"
+        )
+    else:
+        domain = found
+    sizes = [f.length + 1 for f in files]
+    n_states = int(sum(sizes))
+    obs = np.empty((n_states, dims[0]), np.float32)
+    act = np.empty((n_states, dims[1]), np.float32)
+    disc = np.empty(n_states, np.float32)
+    starts = np.zeros(len(files), np.int64)
+    row = 0
+    for i, f in enumerate(files):
+        ep = first if i == 0 else load_episode(f.path, ("observation", "action", "discount"))
+        n = len(ep["observation"])
+        if n != f.length + 1:
+            raise FbilError(
+                f"{f.path}: holds {n} rows but its name says {f.length} transitions "
+                f"({f.length + 1} rows); the file is damaged or misnamed"
+            )
+        if ep["observation"].shape[1] != dims[0] or ep["action"].shape[1] != dims[1]:
+            raise FbilError(f"{f.path}: array widths differ from the dataset's first episode")
+        starts[i] = row
+        obs[row : row + n] = ep["observation"]
+        act[row : row + n] = ep["action"]
+        disc[row : row + n] = np.asarray(ep["discount"]).reshape(n)
+        row += n
+    return Dataset(root, domain, files, obs, act, disc, starts)
