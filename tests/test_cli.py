@@ -58,3 +58,39 @@ def test_render_maze_and_locomotion(tmp_path: Path) -> None:
     res = fbil("render", "cheetah", "run", "--out", str(strip), "--steps", "20", "--frames", "3")
     assert res.returncode == 0, res.stderr
     assert strip.stat().st_size > 1000
+
+
+FIXTURE = Path(__file__).parent / "fixtures" / "exorl" / "point_mass_maze" / "rnd"
+
+
+def test_dataset_info_reports_coverage_and_plots(tmp_path: Path) -> None:
+    import shutil
+
+    data = tmp_path / "maze"
+    shutil.copytree(FIXTURE, data)
+    plot = tmp_path / "cov.png"
+    res = fbil("dataset-info", str(data), "--plot", str(plot), "--json")
+    assert res.returncode == 0, res.stderr
+    info = json.loads(res.stdout)
+    assert info["episodes"] == 4 and info["transitions"] == 4000
+    cov = info["coverage"]
+    assert 0 < cov["grid_fraction"] <= 1 and "top_left" in cov["rooms_visited"]
+    assert plot.read_bytes()[:4] == b"\x89PNG"
+
+
+def test_dataset_errors_are_one_line(tmp_path: Path) -> None:
+    import shutil
+
+    data = tmp_path / "maze"
+    shutil.copytree(FIXTURE, data)
+    bad = sorted((data / "buffer").glob("*.npz"))[2]
+    bad.write_bytes(bad.read_bytes()[:500])
+    for args, expected in [
+        (["dataset-info", str(tmp_path / "nothing")], "no dataset at"),
+        (["dataset-info", str(data)], bad.name),
+        (["dataset-info", str(FIXTURE), "--domain", "walker"], "not walker"),
+        (["collect", "humanoid", "--episodes", "1", "--out", str(tmp_path / "h")], "valid domains"),
+    ]:
+        res = fbil(*args)
+        lines = res.stderr.strip().splitlines()
+        assert res.returncode == 2 and len(lines) == 1 and expected in lines[0], res.stderr

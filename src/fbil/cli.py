@@ -90,7 +90,9 @@ def _cmd_collect(args: argparse.Namespace) -> int:
     from fbil.data.collect import collect
     from fbil.data.rnd import RNDConfig
 
-    cfg = RNDConfig(num_envs=args.num_envs, updates_per_step=args.updates_per_step)
+    cfg = RNDConfig(
+        num_envs=args.num_envs, updates_per_step=args.updates_per_step, stddev=args.stddev
+    )
     manifest = collect(
         args.domain,
         args.explorer,
@@ -184,6 +186,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--resume", action="store_true", help="continue an interrupted collection")
     p.add_argument("--num-envs", type=int, default=8, help="environments stepped in lockstep")
     p.add_argument("--updates-per-step", type=int, default=1, help="rnd: updates per step")
+    p.add_argument("--stddev", type=float, default=0.2, help="rnd: exploration noise")
     p.add_argument("--threads", type=int, default=None, help="torch threads")
     p.add_argument("--json", action="store_true", help="print the manifest as JSON")
     p.set_defaults(func=_cmd_collect)
@@ -208,3 +211,6 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("fbil: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:  # e.g. `fbil tasks | head`
+        sys.stderr.close()
+        return 0

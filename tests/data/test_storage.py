@@ -120,3 +120,19 @@ def test_dataset_of_another_domain_is_refused(tmp_path: Path) -> None:
     odd = _write_exorl(tmp_path / "odd", [_exorl_episode(rng, 5, obs_dim=7)])
     with pytest.raises(FbilError, match="cannot tell the domain"):
         load_dataset(odd)
+
+
+FIXTURE = Path(__file__).parents[1] / "fixtures" / "exorl" / "point_mass_maze" / "rnd"
+
+
+def test_committed_exorl_fixture_loads_and_relabels(tmp_path: Path) -> None:
+    import shutil
+
+    shutil.copytree(FIXTURE, tmp_path / "rnd")  # relabeling writes a cache beside the data
+    data = load_dataset(tmp_path / "rnd")  # no manifest: the domain comes from array sizes
+    assert data.domain == "point_mass_maze"
+    assert data.num_episodes == 4 and data.num_transitions == 4000
+    # The maze observes (x, y, vx, vy), which is its physics state.
+    np.testing.assert_array_equal(data.observation, data.physics().astype(np.float32))
+    r = data.reward("reach_top_left")
+    assert r.shape == (4000,) and r.dtype == np.float32 and r.max() > 0

@@ -136,7 +136,7 @@ def collect(
         seeds = [_episode_seed(seed, i) for i in range(done, done + n)]
         ep = batch.rollout(policy, seeds)
         if agent is not None:
-            agent.end_episodes(ep.observation[:, -1])
+            agent.end_episodes(ep.observation, ep.action)
         for i in range(n):
             write_episode(
                 out,
@@ -172,5 +172,6 @@ def _refill(agent: RNDExplorer, out: Path, done: int) -> None:
     keep = max(1, agent.cfg.replay_capacity // per_episode)
     for f in list_episodes(out)[-keep:]:
         ep = load_episode(f.path, ("observation", "action"))
-        agent.replay.add(ep["observation"][:-1], ep["action"][1:], ep["observation"][1:])
+        obs, act = ep["observation"][None], ep["action"][None, 1:]
+        agent.replay.add_steps(obs, act, range(act.shape[1]))
         agent.obs_norm.update(torch.from_numpy(np.asarray(ep["observation"][1:])))

@@ -27,6 +27,7 @@ class RNDConfig:
     batch_size: int = 128
     lr: float = 3e-4
     discount: float = 0.99
+    nstep: int = 3  # n-step returns, as ExORL's DDPG
     tau: float = 0.01  # Polyak rate of the critic targets
     stddev: float = 0.2  # exploration and target-smoothing noise
     stddev_clip: float = 0.3
@@ -69,26 +70,39 @@ class RunningNorm:
 
 
 class Replay:
-    """Ring buffer of (obs, action, next_obs) transitions."""
+    """Ring buffer of n-step transitions: (obs, action, the next n states, how many of
+    them are real). Near an episode's end fewer than n follow; the rest repeat the last."""
 
-    def __init__(self, capacity: int, obs_dim: int, act_dim: int) -> None:
+    def __init__(self, capacity: int, obs_dim: int, act_dim: int, nstep: int) -> None:
         self.obs = np.zeros((capacity, obs_dim), np.float32)
-        self.next_obs = np.zeros((capacity, obs_dim), np.float32)
         self.action = np.zeros((capacity, act_dim), np.float32)
-        self.capacity, self.size, self.pos = capacity, 0, 0
+        self.next_seq = np.zeros((capacity, nstep, obs_dim), np.float32)
+        self.n_valid = np.zeros(capacity, np.int64)
+        self.capacity, self.size, self.pos, self.nstep = capacity, 0, 0, nstep
 
-    def add(self, obs: np.ndarray, action: np.ndarray, next_obs: np.ndarray) -> None:
+    def add(self, obs: np.ndarray, action: np.ndarray, next_seq: np.ndarray, k: int) -> None:
         i = (self.pos + np.arange(len(obs))) % self.capacity
-        self.obs[i], self.action[i], self.next_obs[i] = obs, action, next_obs
+        self.obs[i], self.action[i], self.next_seq[i], self.n_valid[i] = obs, action, next_seq, k
         self.pos = int(i[-1] + 1) % self.capacity
         self.size = min(self.size + len(obs), self.capacity)
+
+    def add_steps(self, observation: np.ndarray, action: np.ndarray, steps: range) -> None:
+        """Transitions starting at `steps` of episodes observation (N, T+1, d), action
+        (N, T, a)."""
+        t_len = action.shape[1]
+        for t in steps:
+            k = min(self.nstep, t_len - t)
+            seq = observation[:, t + 1 : t + 1 + k]
+            pad = np.repeat(seq[:, -1:], self.nstep - k, axis=1)
+            self.add(observation[:, t], action[:, t], np.concatenate([seq, pad], axis=1), k)
 
     def sample(self, n: int, rng: np.random.Generator) -> tuple[torch.Tensor, ...]:
         i = rng.integers(0, self.size, n)
         return (
             torch.from_numpy(self.obs[i]),
             torch.from_numpy(self.action[i]),
-            torch.from_numpy(self.next_obs[i]),
+            torch.from_numpy(self.next_seq[i]),
+            torch.from_numpy(self.n_valid[i]),
         )
 
 
@@ -111,17 +125,24 @@ class RNDExplorer:
         self.rnd_opt = torch.optim.Adam(self.rnd_predictor.parameters(), lr=config.lr)
         self.obs_norm = RunningNorm((obs_dim,))
         self.intr_norm = RunningNorm(())
-        self.replay = Replay(config.replay_capacity, obs_dim, act_dim)
+        self.replay = Replay(config.replay_capacity, obs_dim, act_dim, config.nstep)
         self.env_steps = 0  # per environment
         self.updates = 0
-        self._last: tuple[np.ndarray, np.ndarray] | None = None
+        self._obs: list[np.ndarray] = []  # this episode's observations and actions so far
+        self._actions: list[np.ndarray] = []
         self.last_intrinsic = 0.0
 
     # -- acting --------------------------------------------------------------------------
     def __call__(self, obs: np.ndarray, step: int) -> np.ndarray:
-        if step > 0 and self._last is not None:
-            self.replay.add(self._last[0], self._last[1], obs)
+        if step == 0:
+            self._obs, self._actions = [], []
+        else:
             self.obs_norm.update(torch.from_numpy(obs))
+        self._obs.append(obs.copy())
+        n = self.cfg.nstep
+        if len(self._obs) > n:  # the transition that started n steps ago is complete
+            seq = np.stack(self._obs[-n:], axis=1)
+            self.replay.add(self._obs[-n - 1], self._actions[-n], seq, n)
         if self.env_steps < self.cfg.seed_steps:
             action = self.rng.uniform(-1, 1, (len(obs), self.act_dim)).astype(np.float32)
         else:
@@ -132,14 +153,15 @@ class RNDExplorer:
             for _ in range(self.cfg.updates_per_step):
                 self.update()
         self.env_steps += 1
-        self._last = (obs.copy(), action)
+        self._actions.append(action)
         return action
 
-    def end_episodes(self, final_obs: np.ndarray) -> None:
-        """Store the last transitions of the episodes that just ended."""
-        if self._last is not None:
-            self.replay.add(self._last[0], self._last[1], final_obs)
-        self._last = None
+    def end_episodes(self, observation: np.ndarray, action: np.ndarray) -> None:
+        """Store the transitions the episodes' end left short of n steps (the rollout's
+        observation (N, T+1, d) and action (N, T, a) arrays)."""
+        t_len = action.shape[1]
+        self.replay.add_steps(observation, action, range(max(0, t_len - self.cfg.nstep), t_len))
+        self._obs, self._actions = [], []
 
     # -- learning --------------------------------------------------------------------------
     def _normalise(self, obs: torch.Tensor) -> torch.Tensor:
@@ -149,29 +171,29 @@ class RNDExplorer:
         x = torch.cat([obs, action], dim=-1)
         return torch.minimum(nets[0](x), nets[1](x)).squeeze(-1)
 
-    def update(self) -> dict[str, float]:
+    def update(self) -> None:
         cfg = self.cfg
-        obs, action, next_obs = self.replay.sample(cfg.batch_size, self.rng)
+        obs, action, next_seq, n_valid = self.replay.sample(cfg.batch_size, self.rng)
+        b, n, d = next_seq.shape
+        valid = (torch.arange(n)[None] < n_valid[:, None]).float()
         # RND: the predictor learns the target on visited states; its error is the reward.
-        error = (
-            (
-                self.rnd_predictor(self._normalise(next_obs))
-                - self.rnd_target(self._normalise(next_obs))
-            )
-            .pow(2)
-            .mean(-1)
-        )
+        flat = self._normalise(next_seq.reshape(b * n, d))
+        error = (self.rnd_predictor(flat) - self.rnd_target(flat)).pow(2).mean(-1).view(b, n)
         self.rnd_opt.zero_grad(set_to_none=True)
-        error.mean().backward()
+        ((error * valid).sum() / valid.sum()).backward()
         self.rnd_opt.step()
         intrinsic = error.detach()
-        self.intr_norm.update(intrinsic[:, None])
+        self.intr_norm.update(intrinsic[:, :1])
         reward = intrinsic / (self.intr_norm.var.sqrt() + 1e-8)
-        # Critics: smoothed target policy, twin minimum, no terminal states.
+        # n-step return, then bootstrap from the last real state (there are no terminals).
+        ret = (reward * valid * cfg.discount ** torch.arange(n, dtype=torch.float32)).sum(-1)
+        last = next_seq[torch.arange(b), n_valid - 1]
         with torch.no_grad():
-            noise = (torch.randn_like(action) * cfg.stddev).clamp(-cfg.stddev_clip, cfg.stddev_clip)
-            next_action = (self.actor(next_obs) + noise).clamp(-1, 1)
-            target = reward + cfg.discount * self._q(self.critic_targets, next_obs, next_action)
+            noise = torch.randn_like(action) * cfg.stddev
+            noise = noise.clamp(-cfg.stddev_clip, cfg.stddev_clip)
+            next_action = (self.actor(last) + noise).clamp(-1, 1)
+            next_q = self._q(self.critic_targets, last, next_action)
+            target = ret + cfg.discount ** n_valid.float() * next_q
         x = torch.cat([obs, action], dim=-1)
         q1, q2 = (c(x).squeeze(-1) for c in self.critics)
         critic_loss = F.mse_loss(q1, target) + F.mse_loss(q2, target)
@@ -189,8 +211,7 @@ class RNDExplorer:
             ):
                 tp.lerp_(p, cfg.tau)
         self.updates += 1
-        self.last_intrinsic = float(intrinsic.mean())
-        return {"critic_loss": float(critic_loss.detach()), "intrinsic": self.last_intrinsic}
+        self.last_intrinsic = float(intrinsic[:, 0].mean())
 
     # -- checkpoint ------------------------------------------------------------------------
     def state(self) -> dict[str, Any]:
