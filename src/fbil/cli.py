@@ -154,6 +154,78 @@ def _cmd_dataset_info(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_pretrain(args: argparse.Namespace) -> int:
+    import dataclasses
+
+    import torch
+
+    from fbil.data import load_dataset
+    from fbil.data.storage import read_manifest
+    from fbil.fb.config import preset
+    from fbil.fb.train import FBTrainer
+
+    if args.threads:
+        torch.set_num_threads(args.threads)
+    if args.device.startswith("cuda") and not torch.cuda.is_available():
+        raise FbilError("--device cuda: no CUDA device here; use --device cpu")
+    model_cfg, train_cfg = preset(args.domain, args.preset)
+    overrides = {
+        k: v
+        for k, v in (
+            ("steps", args.steps),
+            ("seed", args.seed),
+            ("batch_size", args.batch_size),
+            ("checkpoint_seconds", args.checkpoint_seconds),
+        )
+        if v is not None
+    }
+    train_cfg = dataclasses.replace(train_cfg, **overrides)
+    dataset = load_dataset(args.data, domain=args.domain)
+    trainer = FBTrainer(model_cfg, train_cfg, dataset, device=args.device)
+    manifest = read_manifest(args.data) or {}
+    model = trainer.fit(args.out, resume=args.resume, progress=not args.json, manifest=manifest)
+    summary = {
+        "out": str(args.out),
+        "steps": trainer.step,
+        "wall_seconds": model.metadata.get("wall_seconds"),
+    }
+    print(json.dumps(summary) if args.json else f"model saved in {args.out} ({trainer.step} steps)")
+    return 0
+
+
+def _cmd_zero_shot(args: argparse.Namespace) -> int:
+    from fbil.data import load_dataset
+    from fbil.fb.model import FBModel
+    from fbil.fb.zero_shot import zero_shot
+
+    model = FBModel.load(args.model)
+    dataset = load_dataset(args.data)
+    tasks = dataset_tasks = get_domain_tasks(dataset.domain)
+    if args.task != "all":
+        if args.task not in dataset_tasks:
+            raise FbilError(
+                f"unknown task {args.task!r} for {dataset.domain}; valid tasks: "
+                f"{', '.join(dataset_tasks)}, all"
+            )
+        tasks = [args.task]
+    result = zero_shot(
+        model, dataset, tasks, episodes=args.episodes, seed=args.seed, progress=not args.json
+    )
+    if args.json:
+        print(json.dumps(result))
+        return 0
+    print(f"zero-shot returns of {args.model} ({args.episodes} episodes each)")
+    for task, r in result["tasks"].items():
+        print(f"  {task:<24} {r['return_mean']:8.1f} ± {r['return_std']:.1f}")
+    return 0
+
+
+def get_domain_tasks(domain: str) -> list[str]:
+    from fbil.envs import get_domain
+
+    return get_domain(domain).task_names
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="fbil",
@@ -197,6 +269,34 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--plot", default=None, help="write a coverage figure (PNG)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=_cmd_dataset_info)
+    p = sub.add_parser("pretrain", help="pre-train an FB model on a dataset")
+    p.add_argument("domain")
+    p.add_argument("--data", required=True, help="dataset folder")
+    p.add_argument("--preset", default="cpu", help="paper, cpu (default) or smoke")
+    p.add_argument("--out", required=True, help="model folder")
+    p.add_argument("--steps", type=int, default=None, help="gradient steps (preset default)")
+    p.add_argument("--batch-size", type=int, default=None)
+    p.add_argument("--seed", type=int, default=None)
+    p.add_argument("--device", default="cpu", help="cpu or cuda")
+    p.add_argument("--threads", type=int, default=None, help="torch threads")
+    p.add_argument("--resume", action="store_true", help="continue from OUT's checkpoint")
+    p.add_argument(
+        "--checkpoint-seconds",
+        type=float,
+        default=None,
+        help="seconds between checkpoints (default 180)",
+    )
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=_cmd_pretrain)
+
+    p = sub.add_parser("zero-shot", help="zero-shot returns of a model from task rewards")
+    p.add_argument("model")
+    p.add_argument("--data", required=True, help="dataset to infer z_r from")
+    p.add_argument("--task", default="all")
+    p.add_argument("--episodes", type=int, default=20)
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=_cmd_zero_shot)
     return parser
 
 

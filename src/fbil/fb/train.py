@@ -1,0 +1,299 @@
+"""FB pre-training: the FB loss, orthonormality of B, and the actor, on a dataset.
+
+One update, top to bottom (SPEC §4), for a batch of transitions (s_i, a_i, s'_i):
+  z_i      Gaussian on the sphere, or (half the rows) B of another next state of the batch
+  M^k_ij = F^k(s_i, a_i, z_i)^T B(s'_j)                                (both heads)
+  T_ij   = min_k Fbar^k(s'_i, a'_i, z_i)^T Bbar(s'_j), a'_i = mu(s'_i, z_i) + clipped noise
+  L_FB   = sum_k 1/2 mean_{i!=j} (M^k_ij - gamma T_ij)^2 - mean_i M^k_ii
+  L_orth = mean_{i!=j} (b_i^T b_j)^2 - 2 mean_i |b_i|^2,  b_i = B(s'_i)
+  L_actor = -mean_i min_k F^k(s_i, a~_i, z_i)^T z_i,  a~_i = mu(s_i, z_i) + clipped noise
+Off-diagonal means are taken as (sum - trace) / (n (n - 1)): no masks.
+"""
+
+from __future__ import annotations
+
+import copy
+import csv
+import dataclasses
+import math
+import subprocess
+import time
+from pathlib import Path
+from typing import Any
+
+import torch
+from torch import nn
+from tqdm.auto import tqdm
+
+from fbil.checkpoint import load_state, save_state
+from fbil.config import config_from_dict
+from fbil.data import Dataset
+from fbil.errors import FbilError
+from fbil.fb.config import FBModelConfig, FBTrainConfig
+from fbil.fb.model import FBModel
+
+CHECKPOINT, LOG = "checkpoint.safetensors", "train_log.csv"
+LOG_FIELDS = (
+    "step",
+    "fb_loss",
+    "fb_diag",
+    "fb_offdiag",
+    "ortho_loss",
+    "ortho_error",
+    "actor_q",
+    "steps_per_s",
+    "wall_seconds",
+)
+
+
+def _offdiag_mean_sq(x: torch.Tensor) -> torch.Tensor:
+    """mean_{i != j} x_ij^2 over the last two dims."""
+    n = x.shape[-1]
+    total = x.pow(2).sum((-2, -1)) - x.diagonal(dim1=-2, dim2=-1).pow(2).sum(-1)
+    return total / (n * (n - 1))
+
+
+def git_commit() -> str:
+    try:
+        out = subprocess.run(
+            ["git", "rev-parse", "HEAD"],
+            capture_output=True,
+            text=True,
+            cwd=Path(__file__).parent,
+            timeout=5,
+        )
+        return out.stdout.strip() or "unknown"
+    except OSError:
+        return "unknown"
+
+
+class FBTrainer:
+    def __init__(
+        self,
+        model_config: FBModelConfig,
+        train_config: FBTrainConfig,
+        dataset: Dataset,
+        device: str = "cpu",
+    ) -> None:
+        self.mcfg, self.cfg, self.dataset = model_config, train_config, dataset
+        self.device = torch.device(device)
+        torch.manual_seed(train_config.seed)
+        self.model = FBModel(model_config).to(self.device).train()
+        self.f_target = copy.deepcopy(self.model.forward_net).requires_grad_(False)
+        self.b_target = copy.deepcopy(self.model.backward_net).requires_grad_(False)
+        self.opt_fb = torch.optim.Adam(
+            [
+                {"params": self.model.forward_net.parameters(), "lr": train_config.lr_f},
+                {"params": self.model.backward_net.parameters(), "lr": train_config.lr_b},
+            ]
+        )
+        self.opt_actor = torch.optim.Adam(self.model.actor.parameters(), lr=train_config.lr_actor)
+        self.gen = torch.Generator(device="cpu").manual_seed(train_config.seed)
+        # The dataset as tensors, once: sampling is then pure tensor indexing.
+        self.obs = torch.from_numpy(dataset.observation).to(self.device)
+        self.action = torch.from_numpy(dataset.action).to(self.device)
+        self.next_index = torch.from_numpy(dataset.next_index).to(self.device)
+        self.step = 0
+        self.sqrt_d = math.sqrt(model_config.z_dim)
+
+    # -- one update ------------------------------------------------------------------------
+    def _noise(self, like: torch.Tensor) -> torch.Tensor:
+        eps = torch.randn(like.shape, generator=self.gen).to(self.device) * self.cfg.stddev
+        return eps.clamp(-self.cfg.stddev_clip, self.cfg.stddev_clip)
+
+    def update(self) -> dict[str, torch.Tensor]:
+        cfg, m = self.cfg, self.model
+        n = cfg.batch_size
+        rows = torch.randint(0, len(self.next_index), (n,), generator=self.gen).to(self.device)
+        j = self.next_index[rows]
+        obs, action, next_obs = self.obs[j - 1], self.action[j], self.obs[j]
+
+        b_next = m.backward_net(next_obs)  # (n, d), with grad
+        z = torch.randn(n, self.mcfg.z_dim, generator=self.gen).to(self.device)
+        perm = torch.randperm(n, generator=self.gen).to(self.device)
+        use_b = (torch.rand(n, generator=self.gen) < cfg.z_from_b_ratio).to(self.device)
+        z = torch.where(use_b[:, None], b_next.detach()[perm], z)
+        z = self.sqrt_d * nn.functional.normalize(z, dim=-1)
+
+        with torch.no_grad():
+            next_action = (m.actor(next_obs, z) + self._noise(action)).clamp(-1, 1)
+            f_tgt = self.f_target(next_obs, z, next_action)  # (2, n, d)
+            target = torch.matmul(f_tgt, self.b_target(next_obs).T).min(0).values  # (n, n)
+        f = m.forward_net(obs, z, action)  # (2, n, d)
+        big_m = torch.matmul(f, b_next.T)  # (2, n, n)
+        fb_offdiag = 0.5 * _offdiag_mean_sq(big_m - cfg.gamma * target).sum()
+        fb_diag = -big_m.diagonal(dim1=-2, dim2=-1).mean(-1).sum()
+        cov = b_next @ b_next.T
+        ortho_loss = _offdiag_mean_sq(cov) - 2 * cov.diagonal().mean()
+        loss = fb_offdiag + fb_diag + cfg.ortho_coef * ortho_loss
+        self.opt_fb.zero_grad(set_to_none=True)
+        loss.backward()
+        self.opt_fb.step()
+
+        pi_action = (m.actor(obs, z) + self._noise(action)).clamp(-1, 1)
+        q = (m.forward_net(obs, z, pi_action) * z).sum(-1).min(0).values
+        actor_loss = -q.mean()
+        self.opt_actor.zero_grad(set_to_none=True)
+        actor_params = list(m.actor.parameters())
+        actor_loss.backward(inputs=actor_params)  # F receives no gradient from the actor
+        self.opt_actor.step()
+
+        with torch.no_grad():
+            for net, tgt in ((m.forward_net, self.f_target), (m.backward_net, self.b_target)):
+                torch._foreach_lerp_(list(tgt.parameters()), list(net.parameters()), cfg.tau)
+            if self.mcfg.b_norm == "batchnorm":
+                for tb, b in zip(self.b_target.buffers(), m.backward_net.buffers(), strict=True):
+                    tb.copy_(b)
+        self.step += 1
+        d = b_next.shape[1]
+        gram = (b_next.T @ b_next).detach() / n
+        return {
+            "fb_loss": (fb_offdiag + fb_diag).detach(),
+            "fb_diag": fb_diag.detach(),
+            "fb_offdiag": fb_offdiag.detach(),
+            "ortho_loss": ortho_loss.detach(),
+            "ortho_error": torch.linalg.matrix_norm(gram - torch.eye(d, device=gram.device)),
+            "actor_q": q.mean().detach(),
+        }
+
+    # -- Cov B ----------------------------------------------------------------------------
+    @torch.no_grad()
+    def compute_cov_b(self, chunk: int = 65_536) -> torch.Tensor:
+        """E_{s~rho}[B(s) B(s)^T] over every next state of the dataset (eval mode)."""
+        net = self.model.backward_net
+        was_training = net.training
+        net.eval()
+        d = self.mcfg.z_dim
+        acc = torch.zeros(d, d, dtype=torch.float64, device=self.device)
+        for start in range(0, len(self.next_index), chunk):
+            b = net(self.obs[self.next_index[start : start + chunk]]).double()
+            acc += b.T @ b
+        net.train(was_training)
+        return (acc / len(self.next_index)).float()
+
+    # -- checkpoints ---------------------------------------------------------------------
+    def state(self) -> dict[str, Any]:
+        return {
+            "model": self.model.state_dict(),
+            "f_target": self.f_target.state_dict(),
+            "b_target": self.b_target.state_dict(),
+            "opt_fb": self.opt_fb.state_dict(),
+            "opt_actor": self.opt_actor.state_dict(),
+            "gen": self.gen.get_state(),
+            "step": self.step,
+            "model_config": dataclasses.asdict(self.mcfg),
+            "train_config": dataclasses.asdict(self.cfg),
+        }
+
+    def load(self, state: dict[str, Any]) -> None:
+        try:
+            self.model.load_state_dict(state["model"])
+            self.f_target.load_state_dict(state["f_target"])
+            self.b_target.load_state_dict(state["b_target"])
+            self.opt_fb.load_state_dict(state["opt_fb"])
+            self.opt_actor.load_state_dict(state["opt_actor"])
+        except (KeyError, RuntimeError) as exc:
+            first = str(exc).strip().splitlines()[0]
+            raise FbilError(f"checkpoint does not match this model ({first})") from None
+        self.gen.set_state(state["gen"])
+        self.step = int(state["step"])
+
+    # -- the loop ----------------------------------------------------------------------
+    def fit(
+        self,
+        out: str | Path,
+        resume: bool = False,
+        progress: bool = True,
+        manifest: dict[str, Any] | None = None,
+    ) -> FBModel:
+        """Train to `cfg.steps`, checkpointing atomically; returns the frozen model (also
+        saved in `out` with Cov B)."""
+        out = Path(out)
+        ckpt, log = out / CHECKPOINT, out / LOG
+        if resume:
+            if not ckpt.is_file():
+                raise FbilError(f"--resume: no checkpoint in {out} (start without --resume)")
+            state = load_state(ckpt)
+            saved = config_from_dict(FBModelConfig, state["model_config"], "model config")
+            if saved != self.mcfg:
+                raise FbilError(f"{ckpt}: saved with another model config; use the same preset")
+            self.load(state)
+            _truncate_log(log, self.step)
+        elif ckpt.exists() or (out / "model.safetensors").exists():
+            raise FbilError(f"{out} already holds a model: pass --resume or choose another --out")
+        out.mkdir(parents=True, exist_ok=True)
+        wall_before = _last_wall(log)
+        new_log = not log.exists()
+        with open(log, "a", newline="") as fh:
+            writer = csv.DictWriter(fh, LOG_FIELDS)
+            if new_log:
+                writer.writeheader()
+            bar = tqdm(
+                total=self.cfg.steps,
+                initial=self.step,
+                disable=not progress,
+                desc="pretrain",
+                unit="step",
+            )
+            started = last_ckpt = last_log = time.perf_counter()
+            steps_at_log = self.step
+            while self.step < self.cfg.steps:
+                metrics = self.update()
+                now = time.perf_counter()
+                if self.step % self.cfg.log_every == 0 or self.step == self.cfg.steps:
+                    rate = (self.step - steps_at_log) / max(now - last_log, 1e-9)
+                    row = {k: round(float(v), 6) for k, v in metrics.items()}
+                    row.update(
+                        step=self.step,
+                        steps_per_s=round(rate, 2),
+                        wall_seconds=round(wall_before + now - started, 1),
+                    )
+                    writer.writerow(row)
+                    fh.flush()
+                    bar.set_postfix(
+                        fb=f"{row['fb_loss']:.3g}",
+                        orth=f"{row['ortho_error']:.2f}",
+                        q=f"{row['actor_q']:.3g}",
+                    )
+                    bar.update(self.step - bar.n)
+                    last_log, steps_at_log = now, self.step
+                if now - last_ckpt >= self.cfg.checkpoint_seconds:
+                    fh.flush()
+                    save_state(ckpt, self.state())
+                    last_ckpt = now
+            bar.update(self.step - bar.n)
+            bar.close()
+        save_state(ckpt, self.state())
+        self.model.cov_b.copy_(self.compute_cov_b())
+        model = self.model
+        extra = {
+            "train_config": dataclasses.asdict(self.cfg),
+            "steps": self.step,
+            "dataset": str(self.dataset.root),
+            "dataset_manifest": manifest or {},
+            "git_commit": git_commit(),
+            "wall_seconds": round(wall_before + time.perf_counter() - started, 1),
+        }
+        model.metadata.update(extra)
+        model.save(out)
+        return FBModel.load(out)
+
+
+def _truncate_log(log: Path, step: int) -> None:
+    """Drop rows logged after the checkpoint we resume from (they will be redone)."""
+    if not log.exists():
+        return
+    with open(log, newline="") as fh:
+        rows = [r for r in csv.DictReader(fh) if int(r["step"]) <= step]
+    with open(log, "w", newline="") as fh:
+        writer = csv.DictWriter(fh, LOG_FIELDS)
+        writer.writeheader()
+        writer.writerows(rows)
+
+
+def _last_wall(log: Path) -> float:
+    if not log.exists():
+        return 0.0
+    with open(log, newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    return float(rows[-1]["wall_seconds"]) if rows else 0.0

@@ -1,0 +1,99 @@
+import math
+import shutil
+from pathlib import Path
+
+import pytest
+import torch
+from safetensors.torch import load_file, save_file
+
+from fbil.data import load_dataset
+from fbil.errors import FbilError
+from fbil.fb.config import FBModelConfig, preset
+from fbil.fb.model import FBModel
+from fbil.fb.train import FBTrainer, _offdiag_mean_sq
+from fbil.fb.zero_shot import dataset_backward
+
+FIXTURE = Path(__file__).parents[1] / "fixtures" / "exorl" / "point_mass_maze" / "rnd"
+
+
+@pytest.fixture(scope="module")
+def trained(tmp_path_factory: pytest.TempPathFactory) -> tuple[FBModel, Path, Path]:
+    root = tmp_path_factory.mktemp("fb")
+    data = root / "data"
+    shutil.copytree(FIXTURE, data)
+    m, t = preset("point_mass_maze", "smoke")
+    trainer = FBTrainer(m, t.__class__(**{**t.__dict__, "steps": 60}), load_dataset(data))
+    model = trainer.fit(root / "model", progress=False)
+    return model, root / "model", data
+
+
+@pytest.mark.parametrize("b_norm", ["l2", "batchnorm", "none"])
+def test_every_inference_verb_returns_z_of_norm_sqrt_d(b_norm: str) -> None:
+    cfg = FBModelConfig(
+        obs_dim=4, act_dim=2, z_dim=12, b_hidden=16, f_hidden=16, f_embed=8, b_norm=b_norm
+    )  # type: ignore[arg-type]
+    model = FBModel(cfg).frozen()
+    obs = torch.randn(32, 4)
+    for z in (
+        model.reward_inference(obs, torch.rand(32)),
+        model.goal_inference(obs),
+        model.project_z(torch.randn(5, 12)),
+        model.sample_z(7),
+    ):
+        torch.testing.assert_close(z.norm(dim=-1), torch.full(z.shape[:-1], math.sqrt(12)))
+
+
+def test_cov_b_is_the_empirical_second_moment_of_b(trained: tuple[FBModel, Path, Path]) -> None:
+    model, _, data = trained
+    b = dataset_backward(model, load_dataset(data)).double()
+    torch.testing.assert_close(model.cov_b.double(), b.T @ b / len(b), rtol=1e-5, atol=1e-5)
+
+
+def test_save_load_round_trip_gives_identical_outputs(
+    trained: tuple[FBModel, Path, Path], tmp_path: Path
+) -> None:
+    model, _, _ = trained
+    model.save(tmp_path / "again")
+    back = FBModel.load(tmp_path / "again")
+    obs, z = torch.randn(9, 4), model.sample_z(9)
+    for fn in (
+        lambda m: m.backward(obs),
+        lambda m: m.forward(obs, z, heads="both"),
+        lambda m: m.act(obs, z),
+    ):
+        torch.testing.assert_close(fn(model), fn(back), rtol=0, atol=0)
+    assert not back.training and not any(p.requires_grad for p in back.parameters())
+    # z can still be optimised through the frozen networks (what FB-IL does).
+    zz = model.sample_z(1).requires_grad_(True)
+    (back.forward(obs[:1], zz) ** 2).sum().backward()
+    assert zz.grad is not None and torch.all(torch.isfinite(zz.grad))
+
+
+def test_damaged_checkpoints_are_refused_by_name(
+    trained: tuple[FBModel, Path, Path], tmp_path: Path
+) -> None:
+    _, directory, _ = trained
+    for damage in ("missing", "shape", "garbage"):
+        bad = tmp_path / damage
+        shutil.copytree(directory, bad)
+        weights = load_file(str(bad / "model.safetensors"))
+        if damage == "missing":
+            weights.pop(next(iter(weights)))
+            save_file(weights, str(bad / "model.safetensors"))
+        elif damage == "shape":
+            key = next(k for k in weights if k.endswith("weight"))
+            weights[key] = torch.zeros(3, 3)
+            save_file(weights, str(bad / "model.safetensors"))
+        else:
+            (bad / "model.safetensors").write_bytes(b"\x00" * 64)
+        with pytest.raises(FbilError, match=r"model\.safetensors"):
+            FBModel.load(bad)
+    with pytest.raises(FbilError, match="no FB model"):
+        FBModel.load(tmp_path / "nowhere")
+
+
+def test_offdiagonal_mean_needs_no_mask() -> None:
+    x = torch.randn(3, 6, 6)
+    mask = ~torch.eye(6, dtype=torch.bool)
+    expected = torch.stack([xi[mask].pow(2).mean() for xi in x])
+    torch.testing.assert_close(_offdiag_mean_sq(x), expected)

@@ -1,0 +1,73 @@
+"""Exact resumption: N steps straight == N/2, SIGKILL, resume, N/2."""
+
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import torch
+from safetensors.torch import load_file
+
+FIXTURE = Path(__file__).parents[1] / "fixtures" / "exorl" / "point_mass_maze" / "rnd"
+
+
+def _pretrain(data: Path, out: Path, steps: int, *extra: str) -> list[str]:
+    return [
+        sys.executable,
+        "-m",
+        "fbil",
+        "pretrain",
+        "point_mass_maze",
+        "--data",
+        str(data),
+        "--preset",
+        "smoke",
+        "--out",
+        str(out),
+        "--steps",
+        str(steps),
+        "--threads",
+        "1",
+        "--json",
+        *extra,
+    ]
+
+
+def test_kill_and_resume_reproduces_straight_training(tmp_path: Path) -> None:
+    data = tmp_path / "data"
+    shutil.copytree(FIXTURE, data)
+    steps = 400
+    straight = subprocess.run(
+        _pretrain(data, tmp_path / "straight", steps), capture_output=True, text=True, timeout=600
+    )
+    assert straight.returncode == 0, straight.stderr
+    out = tmp_path / "killed"
+    proc = subprocess.Popen(
+        _pretrain(data, out, steps, "--checkpoint-seconds", "0"),
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    log = out / "train_log.csv"
+    deadline = time.time() + 300
+    while time.time() < deadline:
+        lines = log.read_text().splitlines() if log.exists() else []
+        if len(lines) > 1 and int(lines[-1].split(",")[0]) >= steps // 2:
+            break
+        time.sleep(0.02)
+    os.kill(proc.pid, signal.SIGKILL)
+    proc.wait()
+    assert not (out / "model.safetensors").exists()  # it really died mid-run
+    resumed = subprocess.run(
+        _pretrain(data, out, steps, "--resume"), capture_output=True, text=True, timeout=600
+    )
+    assert resumed.returncode == 0, resumed.stderr
+    a = load_file(str(tmp_path / "straight" / "model.safetensors"))
+    b = load_file(str(out / "model.safetensors"))
+    assert a.keys() == b.keys()
+    for key in a:
+        torch.testing.assert_close(a[key], b[key], rtol=1e-6, atol=1e-7, msg=key)
+    steps_logged = [int(r.split(",")[0]) for r in (out / "train_log.csv").read_text().split()[1:]]
+    assert steps_logged == sorted(set(steps_logged)) and steps_logged[-1] == steps
