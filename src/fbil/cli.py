@@ -91,8 +91,15 @@ def _cmd_collect(args: argparse.Namespace) -> int:
     from fbil.data.rnd import RNDConfig
 
     cfg = RNDConfig(
-        num_envs=args.num_envs, updates_per_step=args.updates_per_step, stddev=args.stddev
+        num_envs=args.num_envs,
+        agents=args.agents,
+        updates_per_step=args.updates_per_step,
+        stddev=args.stddev,
     )
+    if args.num_envs % args.agents:
+        raise FbilError(
+            f"--num-envs ({args.num_envs}) must be a multiple of --agents ({args.agents})"
+        )
     manifest = collect(
         args.domain,
         args.explorer,
@@ -257,7 +264,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--resume", action="store_true", help="continue an interrupted collection")
     p.add_argument("--num-envs", type=int, default=8, help="environments stepped in lockstep")
-    p.add_argument("--updates-per-step", type=int, default=1, help="rnd: updates per step")
+    p.add_argument("--agents", type=int, default=4, help="rnd: independent explorers")
+    p.add_argument("--updates-per-step", type=int, default=1, help="rnd: updates per round")
     p.add_argument("--stddev", type=float, default=0.2, help="rnd: exploration noise")
     p.add_argument("--threads", type=int, default=None, help="torch threads")
     p.add_argument("--json", action="store_true", help="print the manifest as JSON")

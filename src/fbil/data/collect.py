@@ -21,7 +21,7 @@ from tqdm.auto import tqdm
 from fbil import __version__
 from fbil.checkpoint import load_state, save_state
 from fbil.data.coverage import CoverageTracker
-from fbil.data.rnd import RNDConfig, RNDExplorer
+from fbil.data.rnd import RNDConfig, RNDPopulation
 from fbil.data.storage import (
     episode_arrays,
     list_episodes,
@@ -110,7 +110,7 @@ def collect(
 
     policy: Any
     if explorer == "rnd":
-        agent = RNDExplorer(spec.obs_dim, spec.act_dim, cfg, seed)
+        agent = RNDPopulation(spec.obs_dim, spec.act_dim, cfg, seed)
         ckpt = out / CHECKPOINT
         if done and ckpt.is_file():
             agent.load(load_state(ckpt))
@@ -164,13 +164,16 @@ def collect(
     return manifest
 
 
-def _refill(agent: RNDExplorer, out: Path, done: int) -> None:
-    """Refill the explorer's replay from the newest episodes on disk."""
+def _refill(population: RNDPopulation, out: Path, done: int) -> None:
+    """Refill each explorer's replay from the newest episodes it collected (episodes are
+    dealt to explorers in blocks of num_envs / agents within each batch)."""
     if not done:
         return
-    per_episode = 1000
-    keep = max(1, agent.cfg.replay_capacity // per_episode)
+    cfg = population.cfg
+    per_agent = cfg.num_envs // cfg.agents
+    keep = max(1, cfg.replay_capacity // 1000) * cfg.agents
     for f in list_episodes(out)[-keep:]:
+        agent = population.agents[(f.index % cfg.num_envs) // per_agent]
         ep = load_episode(f.path, ("observation", "action"))
         obs, act = ep["observation"][None], ep["action"][None, 1:]
         agent.replay.add_steps(obs, act, range(act.shape[1]))

@@ -31,7 +31,9 @@ class RNDConfig:
     tau: float = 0.01  # Polyak rate of the critic targets
     stddev: float = 0.2  # exploration and target-smoothing noise
     stddev_clip: float = 0.3
-    updates_per_step: int = 1  # gradient updates per lockstep step of all environments
+    updates_per_step: int = 1  # gradient updates of each agent per update round
+    update_every: int = 2  # lockstep steps between update rounds
+    agents: int = 4  # independent explorers, each driving num_envs / agents environments
     seed_steps: int = 2000  # per environment: uniform random actions before learning
     replay_capacity: int = 500_000
     num_envs: int = 8
@@ -150,8 +152,9 @@ class RNDExplorer:
                 mu = self.actor(torch.from_numpy(obs)).numpy()
             noise = self.rng.normal(0, self.cfg.stddev, mu.shape)
             action = np.clip(mu + noise, -1, 1).astype(np.float32)
-            for _ in range(self.cfg.updates_per_step):
-                self.update()
+            if self.env_steps % self.cfg.update_every == 0:
+                for _ in range(self.cfg.updates_per_step):
+                    self.update()
         self.env_steps += 1
         self._actions.append(action)
         return action
@@ -249,3 +252,47 @@ class RNDExplorer:
         self.env_steps, self.updates = int(state["env_steps"]), int(state["updates"])
         self.rng.bit_generator.state = state["rng"]
         torch.set_rng_state(state["torch_rng"])
+
+
+class RNDPopulation:
+    """Several independent RND explorers, each driving its own slice of the batch.
+
+    One explorer's deterministic policy tends to settle into one region of the
+    environment, so a population (with different seeds) reaches more of it for the same
+    compute, much as distributed explorers with different noise levels do (Ape-X)."""
+
+    def __init__(self, obs_dim: int, act_dim: int, config: RNDConfig, seed: int) -> None:
+        if config.num_envs % config.agents:
+            raise ValueError("num_envs must be a multiple of agents")
+        self.cfg = config
+        self.agents = [
+            RNDExplorer(obs_dim, act_dim, config, seed * 1_000 + k) for k in range(config.agents)
+        ]
+
+    def _slices(self, n: int) -> list[slice]:
+        per = -(-n // len(self.agents))  # the last batch of a collection may be smaller
+        return [slice(k * per, min(n, (k + 1) * per)) for k in range(len(self.agents))]
+
+    def __call__(self, obs: np.ndarray, step: int) -> np.ndarray:
+        parts = [
+            a(obs[s], step)
+            for a, s in zip(self.agents, self._slices(len(obs)), strict=True)
+            if s.start < s.stop
+        ]
+        return np.concatenate(parts)
+
+    def end_episodes(self, observation: np.ndarray, action: np.ndarray) -> None:
+        for agent, s in zip(self.agents, self._slices(len(observation)), strict=True):
+            if s.start < s.stop:
+                agent.end_episodes(observation[s], action[s])
+
+    @property
+    def last_intrinsic(self) -> float:
+        return float(np.mean([a.last_intrinsic for a in self.agents]))
+
+    def state(self) -> dict[str, Any]:
+        return {"agents": [a.state() for a in self.agents]}
+
+    def load(self, state: dict[str, Any]) -> None:
+        for agent, s in zip(self.agents, state["agents"], strict=True):
+            agent.load(s)

@@ -177,6 +177,14 @@ class FBModel(nn.Module):
             z = z.expand(obs.shape[0], -1)
         return self.actor(obs, z)
 
+    def log_prob(self, obs: Tensorish, z: Tensorish, action: Tensorish) -> torch.Tensor:
+        """ln pi_z(a | s) up to a constant: a Gaussian of std `policy_std` around mu(s, z)
+        (the policy-smoothing noise the actor was trained with)."""
+        mu = self.act(obs, z)
+        return -((mu - _as_tensor(action)) ** 2).sum(-1) / (2 * self.policy_std**2)
+
+    policy_std: float = 0.2
+
     def q_value(self, obs: Tensorish, z: Tensorish, action: Tensorish) -> torch.Tensor:
         """F(s, a, z)^T z (mean of the heads): the value of a under the reward whose z is z."""
         z = self.project_z(z)

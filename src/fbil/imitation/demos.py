@@ -1,0 +1,170 @@
+"""Expert demonstrations: one npz file holding one or many trajectories.
+
+Arrays are concatenated over trajectories with `offsets` marking where each trajectory's
+states begin: `observation` (sum of T_i + 1 rows), optional `action` (sum of T_i rows),
+optional `reward` (sum of T_i) and `physics` (like observation); `metadata` is a JSON
+string (domain, task, source, expert returns, ...).
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import zipfile
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from fbil.errors import FbilError
+
+
+@dataclass
+class Trajectory:
+    observation: np.ndarray  # (T+1, obs_dim)
+    action: np.ndarray | None = None  # (T, act_dim)
+    reward: np.ndarray | None = None  # (T,)
+    physics: np.ndarray | None = None  # (T+1, physics_dim)
+
+    def __len__(self) -> int:
+        return len(self.observation) - 1
+
+
+@dataclass
+class Demos:
+    trajectories: list[Trajectory]
+    metadata: dict[str, Any] = field(default_factory=dict)
+
+    def __len__(self) -> int:
+        return len(self.trajectories)
+
+    @property
+    def has_actions(self) -> bool:
+        return all(t.action is not None for t in self.trajectories)
+
+    @property
+    def obs_dim(self) -> int:
+        return int(self.trajectories[0].observation.shape[1])
+
+    def select(self, indices: Sequence[int]) -> Demos:
+        return Demos([self.trajectories[i] for i in indices], dict(self.metadata))
+
+    def validate(
+        self, obs_dim: int | None = None, act_dim: int | None = None, source: str = "demos"
+    ) -> Demos:
+        """Check shapes and values; every problem is a one-line FbilError."""
+        if not self.trajectories:
+            raise FbilError(f"{source}: no trajectories (need at least one demonstration)")
+        for i, t in enumerate(self.trajectories):
+            where = f"{source}: trajectory {i}"
+            obs = np.asarray(t.observation)
+            if obs.ndim != 2 or len(obs) < 2:
+                raise FbilError(
+                    f"{where}: needs at least two states as a (T+1, obs_dim) array, "
+                    f"got shape {obs.shape}"
+                )
+            if obs_dim is not None and obs.shape[1] != obs_dim:
+                raise FbilError(
+                    f"{where}: states have {obs.shape[1]} dimensions, the model "
+                    f"expects {obs_dim} (demos of another domain?)"
+                )
+            if not np.all(np.isfinite(obs)):
+                raise FbilError(f"{where}: observation contains NaN or inf")
+            if t.action is not None:
+                act = np.asarray(t.action)
+                if act.ndim != 2 or len(act) != len(obs) - 1:
+                    raise FbilError(
+                        f"{where}: action must be (T, act_dim) with T = "
+                        f"{len(obs) - 1}, got shape {act.shape}"
+                    )
+                if act_dim is not None and act.shape[1] != act_dim:
+                    raise FbilError(
+                        f"{where}: actions have {act.shape[1]} dimensions, the model "
+                        f"expects {act_dim}"
+                    )
+                if not np.all(np.isfinite(act)):
+                    raise FbilError(f"{where}: action contains NaN or inf")
+        return self
+
+    # -- files ----------------------------------------------------------------------------
+    def save(self, path: str | Path) -> Path:
+        path = Path(path)
+        arrays: dict[str, np.ndarray] = {
+            "observation": np.concatenate([t.observation for t in self.trajectories]).astype(
+                np.float32
+            ),
+            "offsets": np.cumsum([0] + [len(t.observation) for t in self.trajectories]),
+            "metadata": np.array(json.dumps(self.metadata)),
+        }
+        for key in ("action", "reward", "physics"):
+            parts = [getattr(t, key) for t in self.trajectories]
+            if all(p is not None for p in parts):
+                arrays[key] = np.concatenate(parts)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_name(f".{path.name}.tmp")
+        with io.BytesIO() as bs:
+            np.savez_compressed(bs, allow_pickle=False, **arrays)
+            tmp.write_bytes(bs.getvalue())
+        tmp.replace(path)
+        return path
+
+    @classmethod
+    def load(cls, path: str | Path) -> Demos:
+        path = Path(path)
+        if not path.is_file():
+            raise FbilError(f"no demonstrations at {path}")
+        try:
+            with np.load(path, allow_pickle=False) as npz:
+                data = {k: npz[k] for k in npz.files}
+        except (OSError, ValueError, EOFError, zipfile.BadZipFile) as exc:
+            raise FbilError(f"{path}: not a readable demo file ({exc})") from None
+        if "observation" not in data or "offsets" not in data:
+            raise FbilError(f"{path}: not a demo file (needs arrays observation and offsets)")
+        offsets = data["offsets"].astype(int)
+        n = len(offsets) - 1
+        steps = np.diff(offsets) - 1
+        act_offsets = np.concatenate([[0], np.cumsum(steps)])
+        trajs = []
+        for i in range(n):
+            s, e = offsets[i], offsets[i + 1]
+            a, b = act_offsets[i], act_offsets[i + 1]
+            trajs.append(
+                Trajectory(
+                    observation=data["observation"][s:e],
+                    action=data["action"][a:b] if "action" in data else None,
+                    reward=data["reward"][a:b] if "reward" in data else None,
+                    physics=data["physics"][s:e] if "physics" in data else None,
+                )
+            )
+        try:
+            meta = json.loads(str(data.get("metadata", "{}")))
+        except json.JSONDecodeError:
+            meta = {}
+        return cls(trajs, meta).validate(source=str(path))
+
+
+def from_arrays(
+    observations: Sequence[np.ndarray],
+    actions: Sequence[np.ndarray] | None = None,
+    metadata: dict[str, Any] | None = None,
+) -> Demos:
+    """Demos from plain arrays: one (T+1, obs_dim) array per trajectory (and actions)."""
+    trajs = [
+        Trajectory(
+            np.asarray(o, np.float32),
+            None if actions is None else np.asarray(actions[i], np.float32),
+        )
+        for i, o in enumerate(observations)
+    ]
+    return Demos(trajs, dict(metadata or {})).validate()
+
+
+def from_imitation(trajectories: Sequence[Any], metadata: dict[str, Any] | None = None) -> Demos:
+    """Demos from the `imitation` library's Trajectory objects (fields obs, acts)."""
+    return from_arrays(
+        [np.asarray(t.obs) for t in trajectories],
+        [np.asarray(t.acts) for t in trajectories],
+        metadata,
+    )

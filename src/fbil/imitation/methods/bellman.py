@@ -1,0 +1,49 @@
+"""Bellman-gap matching: find the pi_z whose successor measure best satisfies the expert's
+Bellman equation M = P_e + gamma P_e M, on expert transitions (s_t, s_{t+1}).
+
+With delta_t = F(s_t, z) - gamma sg[F(s_{t+1}, z)] (sg: stop-gradient) and C = Cov B:
+  BBELLFB (16): E [-2 F(s_t, z)^T C B(s_{t+1}) + delta_t^T C^2 delta_t]   (norm |.|_B*)
+  FBLOSSFB (39): E [-2 F(s_t, z)^T B(s_{t+1}) + delta_t^T C delta_t]      (norm L2(rho))
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import torch
+
+from fbil.imitation.core import DemoBatch, FBLike, OptimiserConfig, optimise_z
+
+
+def _terms(model: FBLike, batch: DemoBatch, z: torch.Tensor) -> tuple[torch.Tensor, ...]:
+    zz = z.expand(len(batch.obs), -1)
+    f = model.forward(batch.obs, zz)
+    f_next = model.forward(batch.next_obs, zz).detach()
+    return f, f - batch.gamma * f_next
+
+
+def bbell_loss(model: FBLike, batch: DemoBatch, z: torch.Tensor) -> torch.Tensor:
+    c = model.cov_b
+    f, delta = _terms(model, batch, z)
+    cross = (f * (batch.b_next @ c.T)).sum(-1)
+    quad = ((delta @ c.T) ** 2).sum(-1)  # delta^T C^2 delta, C symmetric
+    return batch.mean(-2 * cross + quad)
+
+
+def fbloss_loss(model: FBLike, batch: DemoBatch, z: torch.Tensor) -> torch.Tensor:
+    f, delta = _terms(model, batch, z)
+    cross = (f * batch.b_next).sum(-1)
+    quad = ((delta @ model.cov_b) * delta).sum(-1)
+    return batch.mean(-2 * cross + quad)
+
+
+def bbellfb(
+    model: FBLike, batch: DemoBatch, z0: torch.Tensor, optimiser: OptimiserConfig, **_: Any
+) -> tuple[torch.Tensor, dict[str, Any]]:
+    return optimise_z(model, lambda z: bbell_loss(model, batch, z), z0, optimiser)
+
+
+def fblossfb(
+    model: FBLike, batch: DemoBatch, z0: torch.Tensor, optimiser: OptimiserConfig, **_: Any
+) -> tuple[torch.Tensor, dict[str, Any]]:
+    return optimise_z(model, lambda z: fbloss_loss(model, batch, z), z0, optimiser)

@@ -1,0 +1,45 @@
+"""KL distribution matching (57): min_z -E_{rho_e} sum_k gamma^k ln F(s_t, z)^T B(s_{t+k+1}).
+
+Only meaningful where the model's density F^T B is positive on the demonstration; the
+method refuses models for which it is not (at the warm start)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import torch
+
+from fbil.errors import FbilError
+from fbil.imitation.core import DemoBatch, FBLike, OptimiserConfig, optimise_z
+
+
+def _pair_weights(batch: DemoBatch) -> torch.Tensor:
+    """(N, N): weight_t gamma^k for row t and its future row t + k of the same trajectory."""
+    same = batch.traj[:, None] == batch.traj[None, :]
+    k = batch.step[None, :] - batch.step[:, None]
+    ahead = same & (k >= 0)
+    return torch.where(ahead, batch.weight[:, None] * batch.gamma ** k.clamp(min=0).float(), 0.0)
+
+
+def klfb(
+    model: FBLike, batch: DemoBatch, z0: torch.Tensor, optimiser: OptimiserConfig, **_: Any
+) -> tuple[torch.Tensor, dict[str, Any]]:
+    pairs = _pair_weights(batch)
+    mask = pairs > 0
+
+    def density(z: torch.Tensor) -> torch.Tensor:
+        return model.forward(batch.obs, z.expand(len(batch.obs), -1)) @ batch.b_next.T
+
+    with torch.no_grad():
+        start = density(model.project_z(z0))[mask]
+    if (start <= 0).any():
+        share = float((start <= 0).float().mean())
+        raise FbilError(
+            f"klfb needs F(s,z)^T B(s') > 0 on the demonstration, but the model gives "
+            f"non-positive values on {100 * share:.0f}% of pairs; use another method"
+        )
+
+    def loss(z: torch.Tensor) -> torch.Tensor:
+        return -(pairs * torch.log(density(z).clamp(min=1e-12))).sum()
+
+    return optimise_z(model, loss, z0, optimiser)
