@@ -227,6 +227,61 @@ def _cmd_zero_shot(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_imitate(args: argparse.Namespace) -> int:
+    import torch
+
+    from fbil.fb.model import FBModel
+    from fbil.imitation import MAIN_METHODS, METHODS, Demos, imitate
+
+    if args.threads:
+        torch.set_num_threads(args.threads)
+    model = FBModel.load(args.model)
+    demos = Demos.load(args.demos)
+    if args.demos_per_run is not None:
+        demos = demos.select(range(min(args.demos_per_run, len(demos))))
+    methods = MAIN_METHODS if args.method == "all" else args.method.split(",")
+    for m in methods:
+        if m not in METHODS:
+            raise FbilError(f"unknown method {m!r}; valid methods: {', '.join(METHODS)}, all")
+    results: dict[str, dict[str, object]] = {}
+    policies = {}
+    for m in methods:
+        if METHODS[m].needs_actions and not demos.has_actions:
+            results[m] = {"skipped": "needs expert actions; the demonstrations have none"}
+            continue
+        policy = imitate(model, demos, m)
+        policies[m] = policy
+        z = policy.z
+        results[m] = {
+            "seconds": round(policy.seconds, 4),
+            "z_norm": float(z.norm(dim=-1).mean()),
+            "z_head": [round(float(v), 4) for v in (z[0] if policy.is_schedule else z)[:4]],
+            "schedule_steps": int(z.shape[0]) if policy.is_schedule else None,
+            **{k: v for k, v in policy.info.items() if isinstance(v, int | float)},
+        }
+    if args.out:
+        out = Path(args.out)
+        out.mkdir(parents=True, exist_ok=True)
+        for m, policy in policies.items():
+            policy.save(out / f"{m}.json")
+    if args.json:
+        print(json.dumps({"methods": results}))
+        return 0
+    print(f"{len(demos)} demonstration(s), model {args.model}")
+    print(f"{'method':<10}{'principle':<26}{'seconds':>9}  z (first entries)      |z|")
+    for m, r in results.items():
+        if "skipped" in r:
+            print(f"{m:<10}{METHODS[m].principle:<26}  skipped: {r['skipped']}")
+            continue
+        head = " ".join(f"{v:+.2f}" for v in r["z_head"])  # type: ignore[attr-defined]
+        print(
+            f"{m:<10}{METHODS[m].principle:<26}{r['seconds']:>9.3f}  {head:<22} {r['z_norm']:.2f}"
+        )
+    if args.out:
+        print(f"policies saved in {args.out}/<method>.json")
+    return 0
+
+
 def get_domain_tasks(domain: str) -> list[str]:
     from fbil.envs import get_domain
 
@@ -305,6 +360,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=_cmd_zero_shot)
+    p = sub.add_parser("imitate", help="imitation policies from demonstrations")
+    p.add_argument("model", help="FB model folder")
+    p.add_argument("demos", help="demo file (.npz)")
+    p.add_argument("--method", default="all", help="a method, a comma list, or all")
+    p.add_argument("--demos-per-run", type=int, default=None, help="use the first K demos")
+    p.add_argument("--out", default=None, help="folder for the policies (<method>.json)")
+    p.add_argument("--threads", type=int, default=None, help="torch threads")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=_cmd_imitate)
     return parser
 
 

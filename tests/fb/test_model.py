@@ -8,23 +8,15 @@ from safetensors.torch import load_file, save_file
 
 from fbil.data import load_dataset
 from fbil.errors import FbilError
-from fbil.fb.config import FBModelConfig, preset
+from fbil.fb.config import FBModelConfig
 from fbil.fb.model import FBModel
-from fbil.fb.train import FBTrainer, _offdiag_mean_sq
+from fbil.fb.train import _offdiag_mean_sq
 from fbil.fb.zero_shot import dataset_backward
-
-FIXTURE = Path(__file__).parents[1] / "fixtures" / "exorl" / "point_mass_maze" / "rnd"
 
 
 @pytest.fixture(scope="module")
-def trained(tmp_path_factory: pytest.TempPathFactory) -> tuple[FBModel, Path, Path]:
-    root = tmp_path_factory.mktemp("fb")
-    data = root / "data"
-    shutil.copytree(FIXTURE, data)
-    m, t = preset("point_mass_maze", "smoke")
-    trainer = FBTrainer(m, t.__class__(**{**t.__dict__, "steps": 60}), load_dataset(data))
-    model = trainer.fit(root / "model", progress=False)
-    return model, root / "model", data
+def trained(smoke_model_dir: Path, fixture_data: Path) -> tuple[FBModel, Path, Path]:
+    return FBModel.load(smoke_model_dir), smoke_model_dir, fixture_data
 
 
 @pytest.mark.parametrize("b_norm", ["l2", "batchnorm", "none"])
