@@ -95,6 +95,7 @@ def _cmd_collect(args: argparse.Namespace) -> int:
         agents=args.agents,
         updates_per_step=args.updates_per_step,
         stddev=args.stddev,
+        stddev_max=args.stddev if args.stddev_max is None else args.stddev_max,
     )
     if args.num_envs % args.agents:
         raise FbilError(
@@ -282,6 +283,51 @@ def _cmd_imitate(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_expert(args: argparse.Namespace) -> int:
+    import torch
+
+    from fbil.agents.expert import train_expert
+
+    if args.threads:
+        torch.set_num_threads(args.threads)
+    meta = train_expert(
+        args.domain,
+        args.task,
+        args.mode,
+        args.out,
+        data=args.data,
+        steps=args.steps,
+        seed=args.seed,
+        resume=args.resume,
+        eval_every=args.eval_every,
+        progress=not args.json,
+        command=" ".join(["fbil", *sys.argv[1:]]),
+    )
+    if args.json:
+        print(json.dumps(meta))
+    else:
+        print(
+            f"expert for {args.domain}/{args.task} in {args.out}: return "
+            f"{meta['return_mean']:.1f} ± {meta['return_std']:.1f}"
+        )
+    return 0
+
+
+def _cmd_demos(args: argparse.Namespace) -> int:
+    from fbil.agents.expert import make_demos
+
+    demos = make_demos(args.expert_dir, args.episodes, args.out, start=args.start, seed=args.seed)
+    meta = demos.metadata
+    if args.json:
+        print(json.dumps({"out": args.out, **meta}))
+    else:
+        print(
+            f"{len(demos)} demonstrations of {meta['domain']}/{meta['task']} ({args.start} "
+            f"start) in {args.out}: return {meta['return_mean']:.1f} ± {meta['return_std']:.1f}"
+        )
+    return 0
+
+
 def get_domain_tasks(domain: str) -> list[str]:
     from fbil.envs import get_domain
 
@@ -322,6 +368,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--agents", type=int, default=4, help="rnd: independent explorers")
     p.add_argument("--updates-per-step", type=int, default=1, help="rnd: updates per round")
     p.add_argument("--stddev", type=float, default=0.2, help="rnd: exploration noise")
+    p.add_argument(
+        "--stddev-max",
+        type=float,
+        default=None,
+        help="rnd: noise of the last agent (agents spread from --stddev to this)",
+    )
     p.add_argument("--threads", type=int, default=None, help="torch threads")
     p.add_argument("--json", action="store_true", help="print the manifest as JSON")
     p.set_defaults(func=_cmd_collect)
@@ -369,6 +421,28 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--threads", type=int, default=None, help="torch threads")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=_cmd_imitate)
+    p = sub.add_parser("expert", help="train a TD3 expert for a task")
+    p.add_argument("domain")
+    p.add_argument("task")
+    p.add_argument("--mode", default="offline", help="offline (needs --data) or online")
+    p.add_argument("--data", default=None, help="dataset to relabel (offline)")
+    p.add_argument("--out", required=True)
+    p.add_argument("--steps", type=int, default=100_000, help="gradient steps")
+    p.add_argument("--eval-every", type=int, default=10_000)
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--threads", type=int, default=None)
+    p.add_argument("--resume", action="store_true")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=_cmd_expert)
+
+    p = sub.add_parser("demos", help="record demonstrations of a trained expert")
+    p.add_argument("expert_dir")
+    p.add_argument("--episodes", type=int, required=True)
+    p.add_argument("--out", required=True, help="demo file (.npz)")
+    p.add_argument("--start", default="standard", help="standard or shifted (App. E.5)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=_cmd_demos)
     return parser
 
 

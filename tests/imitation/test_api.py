@@ -48,7 +48,7 @@ def demos(fixture_data: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
 def test_every_method_returns_a_projected_z_quickly(smoke_model_dir: Path, demos: Path) -> None:
     model = FBModel.load(smoke_model_dir)
     d = Demos.load(demos)
-    fast = OptimiserConfig(max_steps=30)
+    fast = OptimiserConfig(steps=30)
     for method in MAIN_METHODS:
         policy = imitate(model, d, method, optimiser=fast)
         norms = policy.z.norm(dim=-1)

@@ -41,7 +41,14 @@ def _episode_seed(seed: int, index: int) -> int:
     return seed * 1_000_003 + index
 
 
-def _check_existing(out: Path, resume: bool, domain: str, explorer: str, seed: int) -> int:
+def _check_existing(
+    out: Path,
+    resume: bool,
+    domain: str,
+    explorer: str,
+    seed: int,
+    rnd_config: dict[str, Any] | None,
+) -> int:
     """Number of complete episodes already in `out` (0 for a fresh collection)."""
     buf = out / "buffer"
     existing = list_episodes(out) if buf.is_dir() else []
@@ -55,7 +62,12 @@ def _check_existing(out: Path, resume: bool, domain: str, explorer: str, seed: i
     manifest = read_manifest(out)
     if manifest is None:
         raise FbilError(f"nothing to resume in {out}: no manifest.json (start without --resume)")
-    for key, value in (("domain", domain), ("explorer", explorer), ("seed", seed)):
+    for key, value in (
+        ("domain", domain),
+        ("explorer", explorer),
+        ("seed", seed),
+        ("rnd_config", rnd_config),
+    ):
         if manifest.get(key) != value:
             raise FbilError(
                 f"{out} was collected with {key}={manifest.get(key)!r}, not {value!r}: "
@@ -91,8 +103,9 @@ def collect(
     if threads is not None:
         torch.set_num_threads(threads)
     out = Path(out)
-    done = _check_existing(out, resume, domain, explorer, seed)
     cfg = rnd_config or RNDConfig()
+    rnd_dict = dataclasses.asdict(cfg) if explorer == "rnd" else None
+    done = _check_existing(out, resume, domain, explorer, seed, rnd_dict)
     manifest: dict[str, Any] = (read_manifest(out) if resume else None) or {
         "domain": domain,
         "explorer": explorer,
@@ -101,7 +114,7 @@ def collect(
         "command": command,
         "layout": "ExORL: buffer/<timestamp>_<idx>_<len>.npz, arrays of length T+1",
         "reward": "none (reward-free; relabel with a task)",
-        "rnd_config": dataclasses.asdict(cfg) if explorer == "rnd" else None,
+        "rnd_config": rnd_dict,
         "machine": platform.machine(),
         "wall_seconds": 0.0,
     }

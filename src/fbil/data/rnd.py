@@ -10,7 +10,7 @@ bottom: networks, replay, then `RNDExplorer.act` (acting + learning) and `update
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -30,6 +30,9 @@ class RNDConfig:
     nstep: int = 3  # n-step returns, as ExORL's DDPG
     tau: float = 0.01  # Polyak rate of the critic targets
     stddev: float = 0.2  # exploration and target-smoothing noise
+    # Population: agent k explores with noise spaced evenly from stddev to stddev_max
+    # (distributed explorers with different noise levels, as in Ape-X).
+    stddev_max: float = 0.2
     stddev_clip: float = 0.3
     updates_per_step: int = 1  # gradient updates of each agent per update round
     update_every: int = 2  # lockstep steps between update rounds
@@ -265,8 +268,10 @@ class RNDPopulation:
         if config.num_envs % config.agents:
             raise ValueError("num_envs must be a multiple of agents")
         self.cfg = config
+        levels = np.linspace(config.stddev, config.stddev_max, config.agents)
         self.agents = [
-            RNDExplorer(obs_dim, act_dim, config, seed * 1_000 + k) for k in range(config.agents)
+            RNDExplorer(obs_dim, act_dim, replace(config, stddev=float(s)), seed * 1_000 + k)
+            for k, s in enumerate(levels)
         ]
 
     def _slices(self, n: int) -> list[slice]:

@@ -27,6 +27,7 @@ from tqdm.auto import tqdm
 
 from fbil.checkpoint import load_state, save_state
 from fbil.config import config_from_dict
+from fbil.csvlog import last_wall_seconds, truncate_log
 from fbil.data import Dataset
 from fbil.errors import FbilError
 from fbil.fb.config import FBModelConfig, FBTrainConfig
@@ -218,11 +219,11 @@ class FBTrainer:
             if saved != self.mcfg:
                 raise FbilError(f"{ckpt}: saved with another model config; use the same preset")
             self.load(state)
-            _truncate_log(log, self.step)
+            truncate_log(log, self.step, LOG_FIELDS)
         elif ckpt.exists() or (out / "model.safetensors").exists():
             raise FbilError(f"{out} already holds a model: pass --resume or choose another --out")
         out.mkdir(parents=True, exist_ok=True)
-        wall_before = _last_wall(log)
+        wall_before = last_wall_seconds(log)
         new_log = not log.exists()
         with open(log, "a", newline="") as fh:
             writer = csv.DictWriter(fh, LOG_FIELDS)
@@ -277,23 +278,3 @@ class FBTrainer:
         model.metadata.update(extra)
         model.save(out)
         return FBModel.load(out)
-
-
-def _truncate_log(log: Path, step: int) -> None:
-    """Drop rows logged after the checkpoint we resume from (they will be redone)."""
-    if not log.exists():
-        return
-    with open(log, newline="") as fh:
-        rows = [r for r in csv.DictReader(fh) if int(r["step"]) <= step]
-    with open(log, "w", newline="") as fh:
-        writer = csv.DictWriter(fh, LOG_FIELDS)
-        writer.writeheader()
-        writer.writerows(rows)
-
-
-def _last_wall(log: Path) -> float:
-    if not log.exists():
-        return 0.0
-    with open(log, newline="") as fh:
-        rows = list(csv.DictReader(fh))
-    return float(rows[-1]["wall_seconds"]) if rows else 0.0

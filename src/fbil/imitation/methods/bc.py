@@ -19,10 +19,9 @@ def bcfb(
             "bcfb needs expert actions, and these demonstrations have none; "
             "use an action-free method (e.g. erfb, goalfb)"
         )
-    action = batch.action
+    return optimise_z(model, lambda z, b: bc_loss(model, b, z), batch, z0, optimiser)
 
-    def loss(z: torch.Tensor) -> torch.Tensor:
-        zz = z.expand(len(batch.obs), -1)
-        return -batch.mean(model.log_prob(batch.obs, zz, action))
 
-    return optimise_z(model, loss, z0, optimiser)
+def bc_loss(model: FBLike, batch: DemoBatch, z: torch.Tensor) -> torch.Tensor:
+    assert batch.action is not None
+    return -batch.mean(model.log_prob(batch.obs, z.expand(len(batch.obs), -1), batch.action))

@@ -40,10 +40,10 @@ def fbloss_loss(model: FBLike, batch: DemoBatch, z: torch.Tensor) -> torch.Tenso
 def bbellfb(
     model: FBLike, batch: DemoBatch, z0: torch.Tensor, optimiser: OptimiserConfig, **_: Any
 ) -> tuple[torch.Tensor, dict[str, Any]]:
-    return optimise_z(model, lambda z: bbell_loss(model, batch, z), z0, optimiser)
+    return optimise_z(model, lambda z, b: bbell_loss(model, b, z), batch, z0, optimiser)
 
 
 def fblossfb(
     model: FBLike, batch: DemoBatch, z0: torch.Tensor, optimiser: OptimiserConfig, **_: Any
 ) -> tuple[torch.Tensor, dict[str, Any]]:
-    return optimise_z(model, lambda z: fbloss_loss(model, batch, z), z0, optimiser)
+    return optimise_z(model, lambda z, b: fbloss_loss(model, b, z), batch, z0, optimiser)

@@ -24,14 +24,13 @@ def _pair_weights(batch: DemoBatch) -> torch.Tensor:
 def klfb(
     model: FBLike, batch: DemoBatch, z0: torch.Tensor, optimiser: OptimiserConfig, **_: Any
 ) -> tuple[torch.Tensor, dict[str, Any]]:
-    pairs = _pair_weights(batch)
-    mask = pairs > 0
+    pairs = _pair_weights(batch)  # rows t (all), columns t + k (all)
 
-    def density(z: torch.Tensor) -> torch.Tensor:
-        return model.forward(batch.obs, z.expand(len(batch.obs), -1)) @ batch.b_next.T
+    def density(z: torch.Tensor, part: DemoBatch) -> torch.Tensor:
+        return model.forward(part.obs, z.expand(len(part.obs), -1)) @ batch.b_next.T
 
     with torch.no_grad():
-        start = density(model.project_z(z0))[mask]
+        start = density(model.project_z(z0), batch)[pairs > 0]
     if (start <= 0).any():
         share = float((start <= 0).float().mean())
         raise FbilError(
@@ -39,7 +38,10 @@ def klfb(
             f"non-positive values on {100 * share:.0f}% of pairs; use another method"
         )
 
-    def loss(z: torch.Tensor) -> torch.Tensor:
-        return -(pairs * torch.log(density(z).clamp(min=1e-12))).sum()
+    def loss(z: torch.Tensor, part: DemoBatch) -> torch.Tensor:
+        # A minibatch keeps its rows' pairs, reweighted to its (uniform) row weights.
+        rows = part.rows if part.rows is not None else torch.arange(len(batch.obs))
+        w = pairs[rows] / batch.weight[rows, None] * part.weight[:, None]
+        return -(w * torch.log(density(z, part).clamp(min=1e-12))).sum()
 
-    return optimise_z(model, loss, z0, optimiser)
+    return optimise_z(model, loss, batch, z0, optimiser)

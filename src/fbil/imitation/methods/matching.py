@@ -28,10 +28,10 @@ def dm_loss(model: FBLike, batch: DemoBatch, z: torch.Tensor) -> torch.Tensor:
 def fmfb(
     model: FBLike, batch: DemoBatch, z0: torch.Tensor, optimiser: OptimiserConfig, **_: Any
 ) -> tuple[torch.Tensor, dict[str, Any]]:
-    return optimise_z(model, lambda z: fm_loss(model, batch, z), z0, optimiser)
+    return optimise_z(model, lambda z, b: fm_loss(model, b, z), batch, z0, optimiser)
 
 
 def dmfb(
     model: FBLike, batch: DemoBatch, z0: torch.Tensor, optimiser: OptimiserConfig, **_: Any
 ) -> tuple[torch.Tensor, dict[str, Any]]:
-    return optimise_z(model, lambda z: dm_loss(model, batch, z), z0, optimiser)
+    return optimise_z(model, lambda z, b: dm_loss(model, b, z), batch, z0, optimiser)

@@ -1,0 +1,1 @@
+"""Task-specific agents: TD3 experts (online and offline) that produce demonstrations."""

@@ -1,0 +1,301 @@
+"""Experts: TD3 trained per task, offline on a relabeled dataset (the maze) or online
+(locomotion), saved as safetensors + JSON, and their demonstrations.
+
+`train_expert` checkpoints atomically every few minutes and resumes exactly; a CSV log
+records evaluation returns. `make_demos` rolls the expert out deterministically and
+writes a demo file (standard or shifted starts, paper App. E.5)."""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import json
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+from tqdm.auto import tqdm
+
+from fbil import __version__
+from fbil.agents.td3 import TD3, TD3Config
+from fbil.checkpoint import atomic_write_text, load_state, save_state
+from fbil.config import config_from_dict
+from fbil.csvlog import truncate_log
+from fbil.data import load_dataset
+from fbil.envs import BatchedEnv, get_domain, get_task
+from fbil.envs.maze import START_HIGH, START_LOW
+from fbil.errors import FbilError
+from fbil.imitation.demos import Demos, Trajectory
+
+CHECKPOINT, EXPERT, LOG = "checkpoint.safetensors", "expert.json", "train_log.csv"
+LOG_FIELDS = ("step", "return_mean", "return_std", "critic_loss", "q", "wall_seconds")
+
+
+class ExpertPolicy:
+    """A trained TD3 actor as a batched rollout policy."""
+
+    def __init__(self, agent: TD3, noise: float = 0.0) -> None:
+        self.agent, self.noise = agent, noise
+
+    def __call__(self, obs: np.ndarray, step: int) -> np.ndarray:
+        return self.agent.act(obs, self.noise)
+
+
+def evaluate(agent: TD3, domain: str, task: str, episodes: int, seed: int) -> np.ndarray:
+    seeds = [seed * 1_000_003 + 50_000 + i for i in range(episodes)]
+    return BatchedEnv(domain, task, episodes).rollout(ExpertPolicy(agent), seeds).returns
+
+
+def train_expert(
+    domain: str,
+    task: str,
+    mode: str,
+    out: str | Path,
+    data: str | Path | None = None,
+    steps: int = 100_000,
+    seed: int = 0,
+    config: TD3Config | None = None,
+    resume: bool = False,
+    eval_every: int = 10_000,
+    eval_episodes: int = 10,
+    checkpoint_seconds: float = 180.0,
+    num_envs: int = 4,
+    start_steps: int = 10_000,
+    progress: bool = True,
+    command: str = "",
+) -> dict[str, Any]:
+    spec = get_domain(domain)
+    get_task(domain, task)
+    if mode not in ("offline", "online"):
+        raise FbilError(f"unknown mode {mode!r}; valid modes: offline, online")
+    if mode == "offline" and data is None:
+        raise FbilError("--mode offline needs --data DIR (a dataset to relabel with the task)")
+    out = Path(out)
+    ckpt = out / CHECKPOINT
+    if resume and not ckpt.is_file():
+        raise FbilError(f"--resume: no checkpoint in {out} (start without --resume)")
+    if not resume and (ckpt.exists() or (out / EXPERT).exists()):
+        raise FbilError(f"{out} already holds an expert: pass --resume or choose another --out")
+    cfg = config or TD3Config(bc_alpha=2.5 if mode == "offline" else None)
+    agent = TD3(spec.obs_dim, spec.act_dim, cfg, seed)
+    step = 0
+    if resume:
+        state = load_state(ckpt)
+        saved = config_from_dict(TD3Config, state["config"], "TD3 config")
+        if saved != cfg:
+            raise FbilError(f"{ckpt} was trained with another TD3 config; resume with the same")
+        agent.load(state["agent"])
+        step = int(state["step"])
+    out.mkdir(parents=True, exist_ok=True)
+
+    if mode == "offline":
+        dataset = load_dataset(data, domain=domain)  # type: ignore[arg-type]
+        j = torch.from_numpy(dataset.next_index)
+        obs_all = torch.from_numpy(dataset.observation)
+        act_all = torch.from_numpy(dataset.action)
+        rew_all = torch.from_numpy(dataset.reward(task))
+        disc_all = torch.from_numpy(dataset.discount)
+
+        def sample() -> tuple[torch.Tensor, ...]:
+            k = j[torch.randint(0, len(j), (cfg.batch_size,), generator=agent.gen)]
+            r = rew_all[torch.searchsorted(j, k)]
+            return obs_all[k - 1], act_all[k], r, obs_all[k], disc_all[k]
+
+        learner: Any = _OfflineLoop(agent, sample)
+    else:
+        learner = _OnlineLoop(agent, domain, task, num_envs, start_steps, seed, step)
+
+    log = out / LOG
+    if resume:
+        truncate_log(log, step, LOG_FIELDS)
+    new_log = not log.exists()
+    started = last_ckpt = time.perf_counter()
+    last: dict[str, float] = {}
+    with open(log, "a", newline="") as fh:
+        writer = csv.DictWriter(fh, LOG_FIELDS)
+        if new_log:
+            writer.writeheader()
+        bar = tqdm(total=steps, initial=step, disable=not progress, desc=f"expert {task}")
+        while step < steps:
+            last = learner.step() or last
+            step += 1
+            if step % eval_every == 0 or step == steps:
+                returns = evaluate(agent, domain, task, eval_episodes, seed)
+                writer.writerow(
+                    {
+                        "step": step,
+                        "return_mean": round(float(returns.mean()), 2),
+                        "return_std": round(float(returns.std()), 2),
+                        "critic_loss": round(last.get("critic_loss", 0.0), 5),
+                        "q": round(last.get("q", 0.0), 3),
+                        "wall_seconds": round(time.perf_counter() - started, 1),
+                    }
+                )
+                fh.flush()
+                bar.set_postfix(ret=f"{returns.mean():.1f}")
+            if time.perf_counter() - last_ckpt > checkpoint_seconds:
+                save_state(
+                    ckpt, {"agent": agent.state(), "step": step, "config": dataclasses.asdict(cfg)}
+                )
+                last_ckpt = time.perf_counter()
+            bar.update(1)
+        bar.close()
+    save_state(ckpt, {"agent": agent.state(), "step": step, "config": dataclasses.asdict(cfg)})
+    returns = evaluate(agent, domain, task, eval_episodes, seed)
+    meta = {
+        "domain": domain,
+        "task": task,
+        "mode": mode,
+        "steps": step,
+        "seed": seed,
+        "config": dataclasses.asdict(cfg),
+        "data": str(data) if data else None,
+        "return_mean": float(returns.mean()),
+        "return_std": float(returns.std()),
+        "fbil_version": __version__,
+        "command": command,
+    }
+    atomic_write_text(out / EXPERT, json.dumps(meta, indent=2) + "\n")
+    return meta
+
+
+class _OfflineLoop:
+    def __init__(self, agent: TD3, sample: Any) -> None:
+        self.agent, self.sample = agent, sample
+
+    def step(self) -> dict[str, float]:
+        return self.agent.update(*self.sample())
+
+
+class _OnlineLoop:
+    """One environment step of `num_envs` environments, then one update per env-step."""
+
+    def __init__(
+        self,
+        agent: TD3,
+        domain: str,
+        task: str,
+        num_envs: int,
+        start_steps: int,
+        seed: int,
+        step: int,
+    ) -> None:
+        spec = get_domain(domain)
+        self.agent, self.start_steps, self.n = agent, start_steps, num_envs
+        self.envs = BatchedEnv(domain, task, num_envs).envs
+        self.rng = np.random.default_rng(seed + step)
+        cap = 1_000_000
+        self.obs = np.zeros((cap, spec.obs_dim), np.float32)
+        self.next_obs = np.zeros((cap, spec.obs_dim), np.float32)
+        self.act = np.zeros((cap, spec.act_dim), np.float32)
+        self.rew = np.zeros(cap, np.float32)
+        self.size = self.pos = 0
+        self.cap = cap
+        self.env_steps = step * num_envs
+        self.episode = 0
+        self.seed = seed
+        self.current = self._reset_all()
+
+    def _reset_all(self) -> np.ndarray:
+        self.episode += 1
+        return np.stack(
+            [
+                e.reset(seed=self.seed * 1_000_003 + self.episode * 100 + i)[0]
+                for i, e in enumerate(self.envs)
+            ]
+        )
+
+    def step(self) -> dict[str, float]:
+        if self.env_steps < self.start_steps:
+            a = self.rng.uniform(-1, 1, (self.n, self.act.shape[1])).astype(np.float32)
+        else:
+            a = self.agent.act(self.current, self.agent.cfg.exploration_noise)
+        nxt, rew, done = [], [], False
+        for i, env in enumerate(self.envs):
+            o, r, _, trunc, _ = env.step(a[i])
+            nxt.append(o)
+            rew.append(r)
+            done = done or trunc
+        idx = (self.pos + np.arange(self.n)) % self.cap
+        self.obs[idx], self.act[idx], self.rew[idx] = self.current, a, rew
+        self.next_obs[idx] = nxt
+        self.pos = int(idx[-1] + 1) % self.cap
+        self.size = min(self.size + self.n, self.cap)
+        self.env_steps += self.n
+        self.current = self._reset_all() if done else np.stack(nxt)
+        if self.env_steps < self.start_steps:
+            return {}
+        k = self.rng.integers(0, self.size, self.agent.cfg.batch_size)
+        # Truncation is not termination: every transition bootstraps (discount 1).
+        return self.agent.update(
+            torch.from_numpy(self.obs[k]),
+            torch.from_numpy(self.act[k]),
+            torch.from_numpy(self.rew[k]),
+            torch.from_numpy(self.next_obs[k]),
+            torch.ones(len(k)),
+        )
+
+
+def load_expert(directory: str | Path) -> tuple[TD3, dict[str, Any]]:
+    directory = Path(directory)
+    meta_path, ckpt = directory / EXPERT, directory / CHECKPOINT
+    if not meta_path.is_file() or not ckpt.is_file():
+        raise FbilError(
+            f"no expert in {directory}: expected {EXPERT} and {CHECKPOINT} "
+            "(train one with `fbil expert`)"
+        )
+    meta = json.loads(meta_path.read_text())
+    spec = get_domain(meta["domain"])
+    cfg = config_from_dict(TD3Config, meta["config"], "TD3 config")
+    agent = TD3(spec.obs_dim, spec.act_dim, cfg)
+    agent.load(load_state(ckpt)["agent"])
+    return agent, meta
+
+
+def shifted_starts(domain: str, agent: TD3, task: str, seeds: list[int]) -> np.ndarray:
+    """Physics states to start shifted demonstrations from (paper App. E.5): the maze's
+    top-right room, or step 500 of an expert rollout for locomotion."""
+    spec = get_domain(domain)
+    if domain == "point_mass_maze":
+        rng = np.random.default_rng(seeds[0])
+        xy = rng.uniform(START_LOW, START_HIGH, (len(seeds), 2))  # top-right: x, y > 0
+        return np.concatenate([xy, np.zeros((len(seeds), 2))], axis=1)
+    warm = BatchedEnv(domain, task, len(seeds)).rollout(ExpertPolicy(agent), seeds, steps=500)
+    return warm.physics[:, -1].reshape(len(seeds), spec.physics_dim)
+
+
+def make_demos(
+    expert_dir: str | Path,
+    episodes: int,
+    out: str | Path,
+    start: str = "standard",
+    seed: int = 0,
+) -> Demos:
+    agent, meta = load_expert(expert_dir)
+    domain, task = meta["domain"], meta["task"]
+    if start not in ("standard", "shifted"):
+        raise FbilError(f"unknown --start {start!r}; valid: standard, shifted")
+    seeds = [seed * 1_000_003 + 200_000 + i for i in range(episodes)]
+    starts = shifted_starts(domain, agent, task, seeds) if start == "shifted" else None
+    ep = BatchedEnv(domain, task, episodes).rollout(ExpertPolicy(agent), seeds, start_states=starts)
+    trajs = [
+        Trajectory(ep.observation[i], ep.action[i], ep.reward[i].astype(np.float32), ep.physics[i])
+        for i in range(episodes)
+    ]
+    demos = Demos(
+        trajs,
+        {
+            "domain": domain,
+            "task": task,
+            "source": f"TD3 expert {Path(expert_dir).name}",
+            "start": start,
+            "seed": seed,
+            "returns": ep.returns.tolist(),
+            "return_mean": float(ep.returns.mean()),
+            "return_std": float(ep.returns.std()),
+        },
+    )
+    demos.save(out)
+    return demos

@@ -1,0 +1,141 @@
+"""TD3 (Fujimoto et al. 2018), optionally with TD3+BC's behaviour-cloning term
+(Fujimoto & Gu 2021) for offline training. One readable file: networks, update, state.
+
+Update, for a batch (s, a, r, s', discount):
+  a'  = clip(pi_target(s') + clip(N(0, policy_noise), +-noise_clip), -1, 1)
+  y   = r + discount * gamma * min(Q1_target, Q2_target)(s', a')
+  critics regress y; every `policy_delay` updates the actor maximises Q1(s, pi(s))
+  (offline with bc_alpha: maximise lambda Q1(s, pi(s)) - |pi(s) - a|^2,
+  lambda = bc_alpha / mean|Q1|), then all targets move by Polyak averaging.
+"""
+
+from __future__ import annotations
+
+import copy
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import torch
+from torch import nn
+from torch.nn import functional as F
+
+
+@dataclass(frozen=True)
+class TD3Config:
+    hidden: int = 256
+    batch_size: int = 256
+    lr: float = 3e-4
+    gamma: float = 0.99
+    tau: float = 0.005
+    policy_noise: float = 0.2
+    noise_clip: float = 0.5
+    policy_delay: int = 2
+    bc_alpha: float | None = None  # TD3+BC's alpha (offline); None: plain TD3
+    exploration_noise: float = 0.2  # online: Gaussian noise on actions while collecting
+
+
+def _mlp(inp: int, hidden: int, out: int) -> nn.Sequential:
+    # Layer norm + tanh on the first layer standardises raw states (as the paper's nets).
+    return nn.Sequential(
+        nn.Linear(inp, hidden),
+        nn.LayerNorm(hidden),
+        nn.Tanh(),
+        nn.Linear(hidden, hidden),
+        nn.ReLU(),
+        nn.Linear(hidden, out),
+    )
+
+
+class TD3:
+    def __init__(self, obs_dim: int, act_dim: int, config: TD3Config, seed: int = 0) -> None:
+        torch.manual_seed(seed)
+        self.cfg, self.obs_dim, self.act_dim = config, obs_dim, act_dim
+        h = config.hidden
+        self.actor = nn.Sequential(_mlp(obs_dim, h, act_dim), nn.Tanh())
+        self.critics = nn.ModuleList([_mlp(obs_dim + act_dim, h, 1) for _ in range(2)])
+        self.actor_target = copy.deepcopy(self.actor).requires_grad_(False)
+        self.critic_targets = copy.deepcopy(self.critics).requires_grad_(False)
+        self.actor_opt = torch.optim.Adam(self.actor.parameters(), lr=config.lr)
+        self.critic_opt = torch.optim.Adam(self.critics.parameters(), lr=config.lr)
+        self.gen = torch.Generator().manual_seed(seed)
+        self.updates = 0
+
+    def _q(self, nets: nn.ModuleList, obs: torch.Tensor, act: torch.Tensor) -> torch.Tensor:
+        x = torch.cat([obs, act], -1)
+        return torch.cat([n(x) for n in nets], -1)  # (B, 2)
+
+    @torch.no_grad()
+    def act(self, obs: np.ndarray, noise: float = 0.0) -> np.ndarray:
+        a = self.actor(torch.as_tensor(obs, dtype=torch.float32))
+        if noise > 0:
+            a = a + noise * torch.randn(a.shape, generator=self.gen)
+        return a.clamp(-1, 1).numpy()
+
+    def update(
+        self,
+        obs: torch.Tensor,
+        action: torch.Tensor,
+        reward: torch.Tensor,
+        next_obs: torch.Tensor,
+        discount: torch.Tensor,
+    ) -> dict[str, float]:
+        cfg = self.cfg
+        with torch.no_grad():
+            eps = torch.randn(action.shape, generator=self.gen) * cfg.policy_noise
+            next_action = (
+                self.actor_target(next_obs) + eps.clamp(-cfg.noise_clip, cfg.noise_clip)
+            ).clamp(-1, 1)
+            next_q = self._q(self.critic_targets, next_obs, next_action).min(-1).values
+            target = reward + discount * cfg.gamma * next_q
+        q = self._q(self.critics, obs, action)
+        critic_loss = F.mse_loss(q[:, 0], target) + F.mse_loss(q[:, 1], target)
+        self.critic_opt.zero_grad(set_to_none=True)
+        critic_loss.backward()
+        self.critic_opt.step()
+        self.updates += 1
+        metrics = {"critic_loss": float(critic_loss.detach()), "q": float(q.detach().mean())}
+        if self.updates % cfg.policy_delay == 0:
+            pi = self.actor(obs)
+            q_pi = self.critics[0](torch.cat([obs, pi], -1)).squeeze(-1)
+            if cfg.bc_alpha is None:
+                actor_loss = -q_pi.mean()
+            else:
+                lam = cfg.bc_alpha / q_pi.abs().mean().detach()
+                actor_loss = -lam * q_pi.mean() + F.mse_loss(pi, action)
+            self.actor_opt.zero_grad(set_to_none=True)
+            actor_loss.backward(inputs=list(self.actor.parameters()))
+            self.actor_opt.step()
+            with torch.no_grad():
+                for net, tgt in (
+                    (self.actor, self.actor_target),
+                    (self.critics, self.critic_targets),
+                ):
+                    torch._foreach_lerp_(list(tgt.parameters()), list(net.parameters()), cfg.tau)
+            metrics["actor_loss"] = float(actor_loss.detach())
+        return metrics
+
+    def state(self) -> dict[str, Any]:
+        return {
+            "actor": self.actor.state_dict(),
+            "critics": self.critics.state_dict(),
+            "actor_target": self.actor_target.state_dict(),
+            "critic_targets": self.critic_targets.state_dict(),
+            "actor_opt": self.actor_opt.state_dict(),
+            "critic_opt": self.critic_opt.state_dict(),
+            "gen": self.gen.get_state(),
+            "updates": self.updates,
+        }
+
+    def load(self, state: dict[str, Any]) -> None:
+        for name in (
+            "actor",
+            "critics",
+            "actor_target",
+            "critic_targets",
+            "actor_opt",
+            "critic_opt",
+        ):
+            getattr(self, name).load_state_dict(state[name])
+        self.gen.set_state(state["gen"])
+        self.updates = int(state["updates"])

@@ -1,0 +1,71 @@
+"""Committed artifacts and their manifests (command, commit, seed, wall time, sha256).
+
+`write_manifest` records every file of an artifact folder with its sha256;
+`verify` checks them again, so a missing or altered file is reported by name, with the
+command that regenerates it."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import time
+from pathlib import Path
+from typing import Any
+
+from fbil.checkpoint import atomic_write_text
+from fbil.errors import FbilError
+
+MANIFEST = "manifest.json"
+
+
+def sha256(path: str | Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def write_manifest(
+    directory: str | Path,
+    command: str,
+    seed: int | None,
+    wall_seconds: float | None,
+    commit: str,
+    extra: dict[str, Any] | None = None,
+) -> Path:
+    directory = Path(directory)
+    files = {
+        p.relative_to(directory).as_posix(): sha256(p)
+        for p in sorted(directory.rglob("*"))
+        if p.is_file() and p.name != MANIFEST and not p.name.startswith(".")
+    }
+    body = {
+        "command": command,
+        "git_commit": commit,
+        "seed": seed,
+        "wall_seconds": wall_seconds,
+        "created": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+        "sha256": files,
+        **(extra or {}),
+    }
+    return atomic_write_text(directory / MANIFEST, json.dumps(body, indent=2) + "\n")
+
+
+def verify(directory: str | Path) -> dict[str, Any]:
+    """Check every file listed in the folder's manifest; one-line error on a mismatch."""
+    directory = Path(directory)
+    path = directory / MANIFEST
+    if not path.is_file():
+        raise FbilError(f"missing artifact manifest {path}; reinstall fbil from a clean checkout")
+    body: dict[str, Any] = json.loads(path.read_text())
+    for name, digest in body.get("sha256", {}).items():
+        f = directory / name
+        if not f.is_file():
+            raise FbilError(f"missing artifact {f}; regenerate it with: {body.get('command')}")
+        if sha256(f) != digest:
+            raise FbilError(
+                f"artifact {f} does not match its manifest (sha256); regenerate it with: "
+                f"{body.get('command')}"
+            )
+    return body

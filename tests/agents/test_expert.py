@@ -1,0 +1,79 @@
+"""TD3 experts: offline learning on the fixture, demonstrations, shifted starts, errors."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import torch
+
+from fbil.agents.expert import load_expert, make_demos, train_expert
+from fbil.agents.td3 import TD3, TD3Config
+from fbil.data import load_dataset
+from fbil.errors import FbilError
+from fbil.imitation import Demos
+
+
+def test_offline_td3_reduces_its_critic_loss_on_the_fixture(fixture_data: Path) -> None:
+    data = load_dataset(fixture_data)
+    reward = torch.from_numpy(data.reward("reach_top_left"))
+    j = torch.from_numpy(data.next_index)
+    obs, act = torch.from_numpy(data.observation), torch.from_numpy(data.action)
+    agent = TD3(4, 2, TD3Config(hidden=64, batch_size=256, bc_alpha=2.5), seed=0)
+    # A fixed evaluation batch: the critic's TD error on it must fall as it learns.
+    k = torch.randperm(len(j), generator=torch.Generator().manual_seed(0))[:1024]
+    rows = j[k]
+
+    def td_error() -> float:
+        with torch.no_grad():
+            next_a = agent.actor_target(obs[rows])
+            y = reward[k] + 0.99 * agent._q(agent.critic_targets, obs[rows], next_a).min(-1).values
+            return float(((agent._q(agent.critics, obs[rows - 1], act[rows])[:, 0] - y) ** 2)
+                         .mean())
+
+    before = td_error()
+    g = torch.Generator().manual_seed(1)
+    for _ in range(300):
+        b = torch.randint(0, len(j), (256,), generator=g)
+        r = j[b]
+        agent.update(obs[r - 1], act[r], reward[b], obs[r], torch.ones(256))
+    assert td_error() < 0.5 * before
+
+
+@pytest.fixture(scope="module")
+def expert_dir(fixture_data: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    out = tmp_path_factory.mktemp("expert") / "loop"
+    train_expert("point_mass_maze", "loop", "offline", out, data=fixture_data, steps=200,
+                 eval_every=100, eval_episodes=2, progress=False)
+    return out
+
+
+def test_demos_round_trip_with_returns(expert_dir: Path, tmp_path: Path) -> None:
+    demos = make_demos(expert_dir, 3, tmp_path / "d.npz", seed=1)
+    back = Demos.load(tmp_path / "d.npz")
+    assert len(back) == 3 and back.has_actions
+    for t in back.trajectories:
+        assert t.observation.shape == (1001, 4) and t.action.shape == (1000, 2)
+        assert t.physics is not None and t.reward is not None
+    np.testing.assert_allclose([t.reward.sum() for t in back.trajectories],
+                               demos.metadata["returns"], rtol=1e-5)
+    assert back.metadata["task"] == "loop" and back.metadata["start"] == "standard"
+
+
+def test_shifted_maze_demos_start_in_the_top_right_room(expert_dir: Path, tmp_path: Path) -> None:
+    shifted = make_demos(expert_dir, 4, tmp_path / "s.npz", start="shifted")
+    standard = make_demos(expert_dir, 4, tmp_path / "t.npz", start="standard")
+    for t in shifted.trajectories:
+        assert 0.15 <= t.observation[0, 0] <= 0.29 and 0.15 <= t.observation[0, 1] <= 0.29
+    for t in standard.trajectories:
+        assert -0.29 <= t.observation[0, 0] <= -0.15 and 0.15 <= t.observation[0, 1] <= 0.29
+
+
+def test_expert_errors_are_one_line(fixture_data: Path, tmp_path: Path) -> None:
+    with pytest.raises(FbilError, match="valid tasks"):
+        train_expert("point_mass_maze", "orbit", "offline", tmp_path / "a", data=fixture_data)
+    with pytest.raises(FbilError, match="not walker"):
+        train_expert("walker", "walk", "offline", tmp_path / "b", data=fixture_data, steps=1)
+    with pytest.raises(FbilError, match="no expert in"):
+        load_expert(tmp_path / "empty")
+    with pytest.raises(FbilError, match="needs --data"):
+        train_expert("point_mass_maze", "loop", "offline", tmp_path / "c")

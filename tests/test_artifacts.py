@@ -1,0 +1,26 @@
+import json
+from pathlib import Path
+
+import pytest
+
+from fbil.artifacts import sha256, verify, write_manifest
+from fbil.errors import FbilError
+
+
+def test_manifest_records_and_verifies_every_file(tmp_path: Path) -> None:
+    (tmp_path / "sub").mkdir()
+    (tmp_path / "a.json").write_text("{}")
+    (tmp_path / "sub" / "b.bin").write_bytes(b"\x00\x01")
+    write_manifest(tmp_path, "fbil something --out X", seed=3, wall_seconds=1.5, commit="abc")
+    body = json.loads((tmp_path / "manifest.json").read_text())
+    assert body["sha256"] == {
+        "a.json": sha256(tmp_path / "a.json"),
+        "sub/b.bin": sha256(tmp_path / "sub" / "b.bin"),
+    }
+    assert verify(tmp_path)["seed"] == 3
+    (tmp_path / "sub" / "b.bin").write_bytes(b"\x00\x02")
+    with pytest.raises(FbilError, match=r"b\.bin does not match .* fbil something"):
+        verify(tmp_path)
+    (tmp_path / "a.json").unlink()
+    with pytest.raises(FbilError, match=r"missing artifact .*a\.json"):
+        verify(tmp_path)
