@@ -41,6 +41,7 @@ class FBTrainConfig:
     seed: int = 0
     log_every: int = 250
     checkpoint_seconds: float = 180.0
+    snapshot_model: bool = True  # also save the usable model (with Cov B) at checkpoints
 
 
 PRESETS = ("paper", "cpu", "smoke")

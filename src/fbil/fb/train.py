@@ -220,7 +220,7 @@ class FBTrainer:
                 raise FbilError(f"{ckpt}: saved with another model config; use the same preset")
             self.load(state)
             truncate_log(log, self.step, LOG_FIELDS)
-        elif ckpt.exists() or (out / "model.safetensors").exists():
+        elif ckpt.exists() or (out / "model.safetensors").exists():  # never overwrite
             raise FbilError(f"{out} already holds a model: pass --resume or choose another --out")
         out.mkdir(parents=True, exist_ok=True)
         wall_before = last_wall_seconds(log)
@@ -261,20 +261,24 @@ class FBTrainer:
                 if now - last_ckpt >= self.cfg.checkpoint_seconds:
                     fh.flush()
                     save_state(ckpt, self.state())
-                    last_ckpt = now
+                    if self.cfg.snapshot_model:
+                        self._save_model(out, manifest, wall_before + now - started)
+                    last_ckpt = time.perf_counter()
             bar.update(self.step - bar.n)
             bar.close()
         save_state(ckpt, self.state())
-        self.model.cov_b.copy_(self.compute_cov_b())
-        model = self.model
-        extra = {
-            "train_config": dataclasses.asdict(self.cfg),
-            "steps": self.step,
-            "dataset": str(self.dataset.root),
-            "dataset_manifest": manifest or {},
-            "git_commit": git_commit(),
-            "wall_seconds": round(wall_before + time.perf_counter() - started, 1),
-        }
-        model.metadata.update(extra)
-        model.save(out)
+        self._save_model(out, manifest, wall_before + time.perf_counter() - started)
         return FBModel.load(out)
+
+    def _save_model(self, out: Path, manifest: dict[str, Any] | None, wall: float) -> None:
+        """The inference model as it is now, with Cov B over the whole dataset."""
+        self.model.cov_b.copy_(self.compute_cov_b())
+        self.model.metadata.update(
+            train_config=dataclasses.asdict(self.cfg),
+            steps=self.step,
+            dataset=str(self.dataset.root),
+            dataset_manifest=manifest or {},
+            git_commit=git_commit(),
+            wall_seconds=round(wall, 1),
+        )
+        self.model.save(out)
