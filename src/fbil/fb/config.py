@@ -83,7 +83,7 @@ def preset(domain: str, name: str) -> tuple[FBModelConfig, FBTrainConfig]:
         # buys; the paper's tiny B and actor learning rates for the maze need millions of
         # steps, so the cpu preset uses 1e-4 everywhere.
         model = replace(model, z_dim=50, f_hidden=256, f_embed=128)
-        train = replace(train, batch_size=512, lr_b=1e-4, lr_actor=1e-4, steps=200_000)
+        train = replace(train, batch_size=512, lr_b=1e-4, lr_actor=1e-4, steps=150_000)
         return model, train
     model = replace(model, z_dim=8, b_hidden=32, f_hidden=32, f_embed=16)
     train = replace(train, batch_size=64, lr_b=1e-4, lr_actor=1e-4, steps=200, log_every=20)
