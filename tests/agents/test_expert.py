@@ -27,8 +27,9 @@ def test_offline_td3_reduces_its_critic_loss_on_the_fixture(fixture_data: Path) 
         with torch.no_grad():
             next_a = agent.actor_target(obs[rows])
             y = reward[k] + 0.99 * agent._q(agent.critic_targets, obs[rows], next_a).min(-1).values
-            return float(((agent._q(agent.critics, obs[rows - 1], act[rows])[:, 0] - y) ** 2)
-                         .mean())
+            return float(
+                ((agent._q(agent.critics, obs[rows - 1], act[rows])[:, 0] - y) ** 2).mean()
+            )
 
     before = td_error()
     g = torch.Generator().manual_seed(1)
@@ -42,8 +43,17 @@ def test_offline_td3_reduces_its_critic_loss_on_the_fixture(fixture_data: Path) 
 @pytest.fixture(scope="module")
 def expert_dir(fixture_data: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
     out = tmp_path_factory.mktemp("expert") / "loop"
-    train_expert("point_mass_maze", "loop", "offline", out, data=fixture_data, steps=200,
-                 eval_every=100, eval_episodes=2, progress=False)
+    train_expert(
+        "point_mass_maze",
+        "loop",
+        "offline",
+        out,
+        data=fixture_data,
+        steps=200,
+        eval_every=100,
+        eval_episodes=2,
+        progress=False,
+    )
     return out
 
 
@@ -54,8 +64,9 @@ def test_demos_round_trip_with_returns(expert_dir: Path, tmp_path: Path) -> None
     for t in back.trajectories:
         assert t.observation.shape == (1001, 4) and t.action.shape == (1000, 2)
         assert t.physics is not None and t.reward is not None
-    np.testing.assert_allclose([t.reward.sum() for t in back.trajectories],
-                               demos.metadata["returns"], rtol=1e-5)
+    np.testing.assert_allclose(
+        [t.reward.sum() for t in back.trajectories], demos.metadata["returns"], rtol=1e-5
+    )
     assert back.metadata["task"] == "loop" and back.metadata["start"] == "standard"
 
 
