@@ -89,3 +89,43 @@ def test_offdiagonal_mean_needs_no_mask() -> None:
     mask = ~torch.eye(6, dtype=torch.bool)
     expected = torch.stack([xi[mask].pow(2).mean() for xi in x])
     torch.testing.assert_close(_offdiag_mean_sq(x), expected)
+
+
+def test_zero_shot_cli_reports_every_maze_task(
+    trained: tuple[FBModel, Path, Path],
+) -> None:
+    import json
+    import subprocess
+    import sys
+
+    _, directory, data = trained
+    res = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "fbil",
+            "zero-shot",
+            str(directory),
+            "--data",
+            str(data),
+            "--episodes",
+            "2",
+            "--json",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert res.returncode == 0, res.stderr
+    tasks = json.loads(res.stdout)["tasks"]
+    assert list(tasks) == [
+        "reach_top_left",
+        "reach_top_right",
+        "reach_bottom_left",
+        "reach_bottom_right",
+        "reach_bottom_left_long",
+        "loop",
+        "square",
+        "fast_slow",
+    ]
+    assert all(t["episodes"] == 2 and math.isfinite(t["return_mean"]) for t in tasks.values())
