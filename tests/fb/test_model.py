@@ -12,6 +12,7 @@ from fbil.fb.config import FBModelConfig
 from fbil.fb.model import FBModel
 from fbil.fb.train import _offdiag_mean_sq
 from fbil.fb.zero_shot import dataset_backward
+from tests.envs.test_registry import EXPECTED
 
 
 @pytest.fixture(scope="module")
@@ -118,14 +119,5 @@ def test_zero_shot_cli_reports_every_maze_task(
     )
     assert res.returncode == 0, res.stderr
     tasks = json.loads(res.stdout)["tasks"]
-    assert list(tasks) == [
-        "reach_top_left",
-        "reach_top_right",
-        "reach_bottom_left",
-        "reach_bottom_right",
-        "reach_bottom_left_long",
-        "loop",
-        "square",
-        "fast_slow",
-    ]
+    assert list(tasks) == EXPECTED["point_mass_maze"][2]
     assert all(t["episodes"] == 2 and math.isfinite(t["return_mean"]) for t in tasks.values())

@@ -13,6 +13,7 @@ from __future__ import annotations
 import json
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Protocol
@@ -226,3 +227,22 @@ class Timer:
 
     def __exit__(self, *exc: object) -> None:
         self.seconds = time.perf_counter() - self.start
+
+
+LossFn = Callable[[FBLike, DemoBatch, torch.Tensor], torch.Tensor]
+
+
+def gradient_method(loss: LossFn) -> Callable[..., tuple[torch.Tensor, dict[str, Any]]]:
+    """An FB-IL method that minimises `loss(model, batch, z)` from the warm start z0."""
+
+    def infer(
+        model: FBLike,
+        batch: DemoBatch,
+        z0: torch.Tensor,
+        optimiser: OptimiserConfig,
+        **_: Any,
+    ) -> tuple[torch.Tensor, dict[str, Any]]:
+        return optimise_z(model, lambda z, part: loss(model, part, z), batch, z0, optimiser)
+
+    infer.__doc__ = loss.__doc__
+    return infer

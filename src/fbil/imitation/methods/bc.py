@@ -8,7 +8,7 @@ from typing import Any
 import torch
 
 from fbil.errors import FbilError
-from fbil.imitation.core import DemoBatch, FBLike, OptimiserConfig, optimise_z
+from fbil.imitation.core import DemoBatch, FBLike, OptimiserConfig, gradient_method
 
 
 def bcfb(
@@ -19,7 +19,7 @@ def bcfb(
             "bcfb needs expert actions, and these demonstrations have none; "
             "use an action-free method (e.g. erfb, goalfb)"
         )
-    return optimise_z(model, lambda z, b: bc_loss(model, b, z), batch, z0, optimiser)
+    return gradient_method(bc_loss)(model, batch, z0, optimiser)
 
 
 def bc_loss(model: FBLike, batch: DemoBatch, z: torch.Tensor) -> torch.Tensor:

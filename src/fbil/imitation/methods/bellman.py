@@ -8,11 +8,9 @@ With delta_t = F(s_t, z) - gamma sg[F(s_{t+1}, z)] (sg: stop-gradient) and C = C
 
 from __future__ import annotations
 
-from typing import Any
-
 import torch
 
-from fbil.imitation.core import DemoBatch, FBLike, OptimiserConfig, optimise_z
+from fbil.imitation.core import DemoBatch, FBLike, gradient_method
 
 
 def _terms(model: FBLike, batch: DemoBatch, z: torch.Tensor) -> tuple[torch.Tensor, ...]:
@@ -37,13 +35,5 @@ def fbloss_loss(model: FBLike, batch: DemoBatch, z: torch.Tensor) -> torch.Tenso
     return batch.mean(-2 * cross + quad)
 
 
-def bbellfb(
-    model: FBLike, batch: DemoBatch, z0: torch.Tensor, optimiser: OptimiserConfig, **_: Any
-) -> tuple[torch.Tensor, dict[str, Any]]:
-    return optimise_z(model, lambda z, b: bbell_loss(model, b, z), batch, z0, optimiser)
-
-
-def fblossfb(
-    model: FBLike, batch: DemoBatch, z0: torch.Tensor, optimiser: OptimiserConfig, **_: Any
-) -> tuple[torch.Tensor, dict[str, Any]]:
-    return optimise_z(model, lambda z, b: fbloss_loss(model, b, z), batch, z0, optimiser)
+bbellfb = gradient_method(bbell_loss)
+fblossfb = gradient_method(fbloss_loss)

@@ -8,11 +8,9 @@ demonstration (both in B's coordinates, C = Cov B):
 
 from __future__ import annotations
 
-from typing import Any
-
 import torch
 
-from fbil.imitation.core import DemoBatch, FBLike, OptimiserConfig, optimise_z
+from fbil.imitation.core import DemoBatch, FBLike, gradient_method
 
 
 def fm_loss(model: FBLike, batch: DemoBatch, z: torch.Tensor) -> torch.Tensor:
@@ -25,13 +23,5 @@ def dm_loss(model: FBLike, batch: DemoBatch, z: torch.Tensor) -> torch.Tensor:
     return batch.mean(((f @ model.cov_b) * f).sum(-1) - 2 * (f * batch.g).sum(-1))
 
 
-def fmfb(
-    model: FBLike, batch: DemoBatch, z0: torch.Tensor, optimiser: OptimiserConfig, **_: Any
-) -> tuple[torch.Tensor, dict[str, Any]]:
-    return optimise_z(model, lambda z, b: fm_loss(model, b, z), batch, z0, optimiser)
-
-
-def dmfb(
-    model: FBLike, batch: DemoBatch, z0: torch.Tensor, optimiser: OptimiserConfig, **_: Any
-) -> tuple[torch.Tensor, dict[str, Any]]:
-    return optimise_z(model, lambda z, b: dm_loss(model, b, z), batch, z0, optimiser)
+fmfb = gradient_method(fm_loss)
+dmfb = gradient_method(dm_loss)
