@@ -187,6 +187,14 @@ def _cmd_pretrain(args: argparse.Namespace) -> int:
         )
         if v is not None
     }
+    for item in args.set or []:
+        key, _, value = item.partition("=")
+        fields = {f.name: f for f in dataclasses.fields(train_cfg)}
+        if key not in fields or not value:
+            raise FbilError(
+                f"--set {item!r}: expected KEY=VALUE with KEY one of {', '.join(fields)}"
+            )
+        overrides[key] = type(getattr(train_cfg, key))(value)
     train_cfg = dataclasses.replace(train_cfg, **overrides)
     dataset = load_dataset(args.data, domain=args.domain)
     trainer = FBTrainer(model_cfg, train_cfg, dataset, device=args.device)
@@ -290,6 +298,13 @@ def _cmd_expert(args: argparse.Namespace) -> int:
 
     if args.threads:
         torch.set_num_threads(args.threads)
+    from fbil.agents.td3 import TD3Config
+
+    if args.bc_alpha is not None and args.bc_alpha < 0:
+        raise FbilError("--bc-alpha must be >= 0 (0: plain TD3)")
+    default_alpha = 2.5 if args.mode == "offline" else 0.0
+    alpha = default_alpha if args.bc_alpha is None else args.bc_alpha
+    config = TD3Config(bc_alpha=alpha or None)
     meta = train_expert(
         args.domain,
         args.task,
@@ -298,6 +313,7 @@ def _cmd_expert(args: argparse.Namespace) -> int:
         data=args.data,
         steps=args.steps,
         seed=args.seed,
+        config=config,
         resume=args.resume,
         eval_every=args.eval_every,
         progress=not args.json,
@@ -396,6 +412,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--threads", type=int, default=None, help="torch threads")
     p.add_argument("--resume", action="store_true", help="continue from OUT's checkpoint")
     p.add_argument(
+        "--set",
+        action="append",
+        metavar="KEY=VALUE",
+        help="override a training setting, e.g. --set lr_b=1e-6 (repeatable)",
+    )
+    p.add_argument(
         "--checkpoint-seconds",
         type=float,
         default=None,
@@ -429,6 +451,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True)
     p.add_argument("--steps", type=int, default=100_000, help="gradient steps")
     p.add_argument("--eval-every", type=int, default=10_000)
+    p.add_argument(
+        "--bc-alpha",
+        type=float,
+        default=None,
+        help="TD3+BC alpha (offline default 2.5; 0 = plain TD3)",
+    )
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--threads", type=int, default=None)
     p.add_argument("--resume", action="store_true")
