@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The eight maze experts (offline TD3+BC on the RND dataset relabeled per task) and their
+# The eight maze experts (offline TD3 on the RND dataset relabeled per task) and their
 # demonstrations: 20 standard-start and 10 shifted-start per task.
 # Usage: scripts/maze_experts.sh [DATA_DIR] [RUNS_DIR] [DEMOS_DIR] [STEPS] [THREADS]
 # Resumable: a finished expert is skipped, an interrupted one continues from its checkpoint.
@@ -7,7 +7,7 @@ set -euo pipefail
 DATA=${1:-datasets/point_mass_maze/rnd}
 RUNS=${2:-runs/experts/point_mass_maze}
 DEMOS=${3:-artifacts/demos/point_mass_maze}
-STEPS=${4:-100000}
+STEPS=${4:-200000}
 THREADS=${5:-1}
 TASKS="reach_top_left reach_top_right reach_bottom_left reach_bottom_right reach_bottom_left_long loop square fast_slow"
 mkdir -p "$RUNS" "$DEMOS"

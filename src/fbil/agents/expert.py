@@ -78,7 +78,7 @@ def train_expert(
         raise FbilError(f"--resume: no checkpoint in {out} (start without --resume)")
     if not resume and (ckpt.exists() or (out / EXPERT).exists()):
         raise FbilError(f"{out} already holds an expert: pass --resume or choose another --out")
-    cfg = config or TD3Config(bc_alpha=2.5 if mode == "offline" else None)
+    cfg = config or TD3Config()
     agent = TD3(spec.obs_dim, spec.act_dim, cfg, seed)
     step = 0
     if resume:
