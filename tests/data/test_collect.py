@@ -29,6 +29,8 @@ def _cmd(out: Path, *extra: str) -> list[str]:
         "8",
         "--num-envs",
         "2",
+        "--agents",
+        "2",
         "--out",
         str(out),
         "--threads",
@@ -39,10 +41,11 @@ def _cmd(out: Path, *extra: str) -> list[str]:
 
 def test_sigkill_then_resume_loses_and_duplicates_nothing(tmp_path: Path) -> None:
     out = tmp_path / "maze"
-    proc = subprocess.Popen(_cmd(out), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    proc = subprocess.Popen(_cmd(out), stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     deadline = time.time() + 120
     while time.time() < deadline and len(list((out / "buffer").glob("*.npz"))) < 4:
         time.sleep(0.05)
+    assert proc.poll() is None, f"collection ended early: {proc.stderr.read().decode()[-300:]}"
     os.kill(proc.pid, signal.SIGKILL)
     proc.wait()
     before = {f.index: f.path.read_bytes() for f in list_episodes(out)}
