@@ -24,3 +24,10 @@ def test_manifest_records_and_verifies_every_file(tmp_path: Path) -> None:
     (tmp_path / "a.json").unlink()
     with pytest.raises(FbilError, match=r"missing artifact .*a\.json"):
         verify(tmp_path)
+
+
+@pytest.mark.parametrize("folder", ["datasets/point_mass_maze", "models/point_mass_maze"])
+def test_committed_artifacts_match_their_manifests(folder: str) -> None:
+    root = Path(__file__).parents[1] / "artifacts" / folder
+    body = verify(root)
+    assert body["sha256"] and body["command"].startswith("fbil ")
