@@ -11,6 +11,7 @@ import json
 import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import Any
 
 from fbil import __version__
 from fbil.errors import FbilError
@@ -112,6 +113,7 @@ def _cmd_collect(args: argparse.Namespace) -> int:
         threads=args.threads,
         progress=not args.json,
         command=" ".join(["fbil", *sys.argv[1:]]),
+        starts=args.starts,
     )
     if args.json:
         print(json.dumps(manifest))
@@ -162,6 +164,36 @@ def _cmd_dataset_info(args: argparse.Namespace) -> int:
     return 0
 
 
+def _parse_setting(item: str, current: Any, value: str) -> Any:
+    """A --set value converted to the type of the setting it replaces."""
+    try:
+        if isinstance(current, bool):
+            if value.lower() not in ("true", "false", "1", "0"):
+                raise ValueError(value)
+            return value.lower() in ("true", "1")
+        return float(value) if current is None else type(current)(value)
+    except ValueError:
+        kind = type(current).__name__
+        raise FbilError(f"--set {item!r}: {value!r} is not a valid {kind}") from None
+
+
+def _settings(items: list[str] | None, *configs: Any) -> list[dict[str, Any]]:
+    """--set KEY=VALUE items split into one override dict per config (first owner wins)."""
+    import dataclasses
+
+    out: list[dict[str, Any]] = [{} for _ in configs]
+    for item in items or []:
+        key, _, value = item.partition("=")
+        for cfg, target in zip(configs, out, strict=True):
+            if key in {f.name for f in dataclasses.fields(cfg)} and value:
+                target[key] = _parse_setting(item, getattr(cfg, key), value)
+                break
+        else:
+            valid = [f.name for c in configs for f in dataclasses.fields(c)]
+            raise FbilError(f"--set {item!r}: expected KEY=VALUE, KEY one of {', '.join(valid)}")
+    return out
+
+
 def _cmd_pretrain(args: argparse.Namespace) -> int:
     import dataclasses
 
@@ -187,14 +219,9 @@ def _cmd_pretrain(args: argparse.Namespace) -> int:
         )
         if v is not None
     }
-    for item in args.set or []:
-        key, _, value = item.partition("=")
-        fields = {f.name: f for f in dataclasses.fields(train_cfg)}
-        if key not in fields or not value:
-            raise FbilError(
-                f"--set {item!r}: expected KEY=VALUE with KEY one of {', '.join(fields)}"
-            )
-        overrides[key] = type(getattr(train_cfg, key))(value)
+    set_train, set_model = _settings(args.set, train_cfg, model_cfg)
+    overrides.update(set_train)
+    model_cfg = dataclasses.replace(model_cfg, **set_model)
     train_cfg = dataclasses.replace(train_cfg, **overrides)
     dataset = load_dataset(args.data, domain=args.domain)
     trainer = FBTrainer(model_cfg, train_cfg, dataset, device=args.device)
@@ -304,7 +331,8 @@ def _cmd_expert(args: argparse.Namespace) -> int:
         raise FbilError("--bc-alpha must be >= 0 (0: plain TD3)")
     # Measured on the maze: plain offline TD3 beats TD3+BC (alpha 2.5) on reach_top_right.
     alpha = args.bc_alpha or 0.0
-    config = TD3Config(bc_alpha=alpha or None)
+    (settings,) = _settings(args.set, TD3Config())
+    config = TD3Config(**{"bc_alpha": alpha or None, **settings})
     meta = train_expert(
         args.domain,
         args.task,
@@ -350,6 +378,106 @@ def get_domain_tasks(domain: str) -> list[str]:
     return get_domain(domain).task_names
 
 
+def _cmd_evaluate(args: argparse.Namespace) -> int:
+    import torch
+
+    from fbil.evaluation.evaluate import evaluate
+    from fbil.fb.model import FBModel
+    from fbil.imitation.demos import Demos
+
+    if args.threads:
+        torch.set_num_threads(args.threads)
+    model = FBModel.load(args.model)
+    demos = Demos.load(args.demos)
+    out = evaluate(
+        model,
+        demos,
+        args.method,
+        k=args.demos_per_run,
+        draw=args.draw,
+        episodes=args.episodes,
+        seed=args.seed,
+    )
+    methods = {m: r.as_dict() for m, r in out["results"].items()}
+    methods.update({m: {"skipped": why} for m, why in out["skipped"].items()})
+    if args.json:
+        print(
+            json.dumps(
+                {
+                    "expert_return": out["expert_return"],
+                    "task": out["task"],
+                    "k": out["k"],
+                    "episodes": out["episodes"],
+                    "methods": methods,
+                }
+            )
+        )
+        return 0
+    print(
+        f"{out['domain']}/{out['task']}: K={out['k']} demo(s), {out['episodes']} episodes; "
+        f"expert return {out['expert_return']:.1f}"
+    )
+    print(f"{'method':<10}{'principle':<26}{'seconds':>9}{'return':>18}{'score':>8}")
+    for m, r in out["results"].items():
+        ret = f"{r.return_mean:.1f} ± {r.return_std:.1f}"
+        print(f"{m:<10}{r.principle:<26}{r.seconds:>9.3f}{ret:>18}{100 * r.score:>7.1f}%")
+    for m, why in out["skipped"].items():
+        print(f"{m:<10}skipped: {why}")
+    return 0
+
+
+def _cmd_benchmark(args: argparse.Namespace) -> int:
+    from tqdm.auto import tqdm
+
+    from fbil.envs import get_domain, get_task
+    from fbil.evaluation.benchmark import make_jobs, read_results, run_benchmark
+    from fbil.evaluation.evaluate import resolve_methods
+    from fbil.fb.train import git_commit
+
+    spec = get_domain(args.domain)
+    tasks = spec.task_names if args.tasks == "all" else args.tasks.split(",")
+    for t in tasks:
+        get_task(args.domain, t)
+    jobs = make_jobs(
+        args.model,
+        args.demos,
+        args.domain,
+        tasks,
+        resolve_methods(args.methods),
+        args.repetitions,
+        args.k,
+        args.episodes,
+        seed=args.seed,
+        demo_set=args.demo_set,
+    )
+    before = len(read_results(args.out))
+    bar = tqdm(
+        total=len(jobs),
+        initial=min(before, len(jobs)),
+        desc="benchmark",
+        unit="job",
+        disable=args.quiet,
+    )
+
+    def on_result(row: dict[str, Any]) -> None:
+        bar.update(1)
+        if "score" in row:
+            bar.set_postfix(last=f"{row['task']}/{row['method']} {100 * row['score']:.0f}%")
+
+    new = run_benchmark(jobs, args.out, args.workers, args.backend, git_commit(), on_result)
+    bar.close()
+    print(f"{len(new)} jobs run, {len(jobs) - len(new)} already in {args.out}")
+    return 0
+
+
+def _cmd_report(args: argparse.Namespace) -> int:
+    from fbil.evaluation.report import write_report
+
+    path = write_report(args.results, args.out)
+    print(f"report: {path}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="fbil",
@@ -389,6 +517,11 @@ def build_parser() -> argparse.ArgumentParser:
         type=float,
         default=None,
         help="rnd: noise of the last agent (agents spread from --stddev to this)",
+    )
+    p.add_argument(
+        "--starts",
+        default="standard",
+        help="standard (the domain's start) or uniform (maze: anywhere in the four rooms)",
     )
     p.add_argument("--threads", type=int, default=None, help="torch threads")
     p.add_argument("--json", action="store_true", help="print the manifest as JSON")
@@ -457,6 +590,12 @@ def build_parser() -> argparse.ArgumentParser:
         default=None,
         help="TD3+BC's alpha, for offline training (default 0: plain TD3)",
     )
+    p.add_argument(
+        "--set",
+        action="append",
+        metavar="KEY=VALUE",
+        help="override a TD3 setting, e.g. --set tau=0.02 (repeatable)",
+    )
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--threads", type=int, default=None)
     p.add_argument("--resume", action="store_true")
@@ -471,6 +610,40 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=_cmd_demos)
+
+    p = sub.add_parser("evaluate", help="imitate from K demos and score each method")
+    p.add_argument("model")
+    p.add_argument("demos")
+    p.add_argument("--method", default="all", help="a method, a comma list, or all")
+    p.add_argument("--demos-per-run", type=int, default=1, help="K: demonstrations used")
+    p.add_argument("--draw", type=int, default=0, help="which group of K demos to use")
+    p.add_argument("--episodes", type=int, default=10, help="evaluation episodes per method")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--threads", type=int, default=None)
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=_cmd_evaluate)
+
+    p = sub.add_parser("benchmark", help="the task x method x demo-draw grid, resumable")
+    p.add_argument("--domain", required=True)
+    p.add_argument("--model", required=True)
+    p.add_argument("--demos", required=True, help="folder of <task>.npz demo files")
+    p.add_argument("--methods", default="all")
+    p.add_argument("--tasks", default="all", help="all or a comma list")
+    p.add_argument("--k", type=int, default=1, help="demonstrations per imitation")
+    p.add_argument("--repetitions", type=int, default=5, help="demo draws per task")
+    p.add_argument("--episodes", type=int, default=20)
+    p.add_argument("--demo-set", default="standard", help="standard or shifted demos")
+    p.add_argument("--out", required=True, help="results file (.jsonl), appended")
+    p.add_argument("--workers", type=int, default=1)
+    p.add_argument("--backend", default="local", help="local (process pool) or ray")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=_cmd_benchmark)
+
+    p = sub.add_parser("report", help="Markdown + figures from benchmark results")
+    p.add_argument("results", nargs="+", help="results file(s) of one domain")
+    p.add_argument("--out", required=True, help="report folder")
+    p.set_defaults(func=_cmd_report)
     return parser
 
 

@@ -92,6 +92,8 @@ def train_expert(
 
     if mode == "offline":
         dataset = load_dataset(data, domain=domain)  # type: ignore[arg-type]
+        if not resume:
+            agent.set_obs_stats(dataset.observation)
         j = torch.from_numpy(dataset.next_index)
         obs_all = torch.from_numpy(dataset.observation)
         act_all = torch.from_numpy(dataset.action)

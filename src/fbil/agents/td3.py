@@ -60,14 +60,25 @@ class TD3:
         self.critic_opt = torch.optim.Adam(self.critics.parameters(), lr=config.lr)
         self.gen = torch.Generator().manual_seed(seed)
         self.updates = 0
+        # Observation standardisation (mean, std), as TD3+BC: offline, the maze's positions
+        # span +-0.3 and a net on raw inputs learns a value that is too smooth to see walls.
+        self.obs_stats = torch.stack([torch.zeros(obs_dim), torch.ones(obs_dim)])
+
+    def set_obs_stats(self, observations: np.ndarray) -> None:
+        """Standardise inputs by the mean and std of `observations` (a dataset)."""
+        obs = torch.as_tensor(observations, dtype=torch.float64)
+        self.obs_stats = torch.stack([obs.mean(0), obs.std(0).clamp_min(1e-3)]).float()
+
+    def _norm(self, obs: torch.Tensor) -> torch.Tensor:
+        return (obs - self.obs_stats[0]) / self.obs_stats[1]
 
     def _q(self, nets: nn.ModuleList, obs: torch.Tensor, act: torch.Tensor) -> torch.Tensor:
-        x = torch.cat([obs, act], -1)
+        x = torch.cat([self._norm(obs), act], -1)
         return torch.cat([n(x) for n in nets], -1)  # (B, 2)
 
     @torch.no_grad()
     def act(self, obs: np.ndarray, noise: float = 0.0) -> np.ndarray:
-        a = self.actor(torch.as_tensor(obs, dtype=torch.float32))
+        a = self.actor(self._norm(torch.as_tensor(obs, dtype=torch.float32)))
         if noise > 0:
             a = a + noise * torch.randn(a.shape, generator=self.gen)
         return a.clamp(-1, 1).numpy()
@@ -84,7 +95,7 @@ class TD3:
         with torch.no_grad():
             eps = torch.randn(action.shape, generator=self.gen) * cfg.policy_noise
             next_action = (
-                self.actor_target(next_obs) + eps.clamp(-cfg.noise_clip, cfg.noise_clip)
+                self.actor_target(self._norm(next_obs)) + eps.clamp(-cfg.noise_clip, cfg.noise_clip)
             ).clamp(-1, 1)
             next_q = self._q(self.critic_targets, next_obs, next_action).min(-1).values
             target = reward + discount * cfg.gamma * next_q
@@ -96,8 +107,8 @@ class TD3:
         self.updates += 1
         metrics = {"critic_loss": float(critic_loss.detach()), "q": float(q.detach().mean())}
         if self.updates % cfg.policy_delay == 0:
-            pi = self.actor(obs)
-            q_pi = self.critics[0](torch.cat([obs, pi], -1)).squeeze(-1)
+            pi = self.actor(self._norm(obs))
+            q_pi = self.critics[0](torch.cat([self._norm(obs), pi], -1)).squeeze(-1)
             if cfg.bc_alpha is None:
                 actor_loss = -q_pi.mean()
             else:
@@ -125,6 +136,7 @@ class TD3:
             "critic_opt": self.critic_opt.state_dict(),
             "gen": self.gen.get_state(),
             "updates": self.updates,
+            "obs_stats": self.obs_stats,
         }
 
     def load(self, state: dict[str, Any]) -> None:
@@ -139,3 +151,5 @@ class TD3:
             getattr(self, name).load_state_dict(state[name])
         self.gen.set_state(state["gen"])
         self.updates = int(state["updates"])
+        if "obs_stats" in state:  # experts saved before standardisation have none
+            self.obs_stats = state["obs_stats"].float()

@@ -123,6 +123,19 @@ def room_of(xy: np.ndarray) -> np.ndarray:
     return right.astype(int) + 2 * bottom.astype(int)
 
 
+def random_free_positions(rng: np.random.Generator, n: int) -> np.ndarray:
+    """(n, 2) positions uniform over the free floor of all four rooms (walls excluded)."""
+    clear = WALL_HALF_THICKNESS + MASS_RADIUS + 0.005
+    found: list[np.ndarray] = []
+    while sum(len(f) for f in found) < n:
+        xy = rng.uniform(-JOINT_LIMIT, JOINT_LIMIT, (2 * n, 2))
+        ax, ay = np.abs(xy[:, 0]), np.abs(xy[:, 1])
+        arm = ARM_HALF_LENGTH + clear
+        blocked = ((ax < clear) & (ay < arm)) | ((ay < clear) & (ax < arm))
+        found.append(xy[~blocked])
+    return np.concatenate(found)[:n]
+
+
 def _reach_reward(q: Quantities, goal: tuple[float, float]) -> np.ndarray:
     dist = np.linalg.norm(q["position"] - np.asarray(goal), axis=-1)
     near = rewards.tolerance(dist, bounds=(0, GOAL_SIZE), margin=6 * GOAL_SIZE)

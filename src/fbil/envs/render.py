@@ -93,6 +93,35 @@ def plot_maze_trajectories(
     return _save(fig, out)
 
 
+def plot_imitation_panels(
+    demo: np.ndarray,
+    rollouts: dict[str, np.ndarray],
+    out: str | Path,
+    task: str | None = None,
+    titles: dict[str, str] | None = None,
+) -> Path:
+    """One small maze panel per method: the demonstration (red) against the method's
+    rollout (green), as the paper's Fig. 6."""
+    plt = _pyplot()
+    n = max(len(rollouts), 1)
+    cols = min(4, n)
+    rows = (n + cols - 1) // cols
+    fig, axes = plt.subplots(rows, cols, figsize=(2.6 * cols, 2.7 * rows), dpi=110)
+    flat = np.atleast_1d(axes).ravel()
+    for ax, (name, xy) in zip(flat, rollouts.items(), strict=False):
+        draw_maze(ax, task)
+        d, r = np.asarray(demo)[:, :2], np.asarray(xy)[:, :2]
+        ax.plot(d[:, 0], d[:, 1], color="tab:red", lw=1.2, alpha=0.8, label="demo")
+        ax.plot(r[:, 0], r[:, 1], color="tab:green", lw=1.0, alpha=0.9, label="imitation")
+        ax.plot(*r[0], "o", color="tab:green", ms=3)
+        ax.set_title((titles or {}).get(name, name), fontsize=8)
+    for ax in flat[len(rollouts) :]:
+        ax.axis("off")
+    flat[0].legend(fontsize=6, loc="lower left", framealpha=0.8)
+    fig.tight_layout()
+    return _save(fig, out)
+
+
 def _save(fig: Any, out: str | Path) -> Path:
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)

@@ -11,6 +11,7 @@ from fbil.envs import get_domain
 from fbil.errors import FbilError
 
 BNorm = Literal["l2", "batchnorm", "none"]
+Precision = Literal["fp32", "bf16"]
 
 
 @dataclass(frozen=True)
@@ -42,6 +43,11 @@ class FBTrainConfig:
     log_every: int = 250
     checkpoint_seconds: float = 180.0
     snapshot_model: bool = True  # also save the usable model (with Cov B) at checkpoints
+    precision: Precision = "fp32"  # "bf16": networks under bf16 autocast, losses in fp32
+
+    def __post_init__(self) -> None:
+        if self.precision not in ("fp32", "bf16"):
+            raise FbilError(f"unknown precision {self.precision!r}; valid: fp32, bf16")
 
 
 PRESETS = ("paper", "cpu", "smoke")

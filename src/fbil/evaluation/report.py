@@ -1,0 +1,253 @@
+"""`fbil report`: a Markdown report with figures from a benchmark's results.jsonl.
+
+Sections: mean imitation score per method next to the paper (with 95% confidence
+intervals over demo draws), per-task returns next to the paper's Table 5, time to policy
+next to Table 8, the demo-shift and K comparisons when the results hold them, and (maze)
+the demonstration against each method's rollout, as the paper's Fig. 6.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import defaultdict
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from fbil.checkpoint import atomic_write_text
+from fbil.errors import FbilError
+from fbil.evaluation.benchmark import read_results
+from fbil.evaluation.paper import PAPER_RETURNS, PAPER_SCORES, PAPER_TIMES
+from fbil.imitation.methods import MAIN_METHODS, METHODS
+
+
+def _order(methods: set[str]) -> list[str]:
+    known = [m for m in MAIN_METHODS if m in methods]
+    return known + sorted(methods - set(known))
+
+
+def _ci95(values: Sequence[float]) -> float:
+    v = np.asarray(values, float)
+    return float(1.96 * v.std(ddof=1) / math.sqrt(len(v))) if len(v) > 1 else float("nan")
+
+
+def summarise(rows: Sequence[dict[str, Any]]) -> dict[str, Any]:
+    """Scores and returns per (demo_set, k) setting, method and task."""
+    domains = sorted({r["domain"] for r in rows})
+    if len(domains) > 1:
+        raise FbilError(
+            f"the results mix domains ({', '.join(domains)}); report one domain per "
+            "results file (run `fbil benchmark` with a separate --out per domain)"
+        )
+    cells: dict[tuple[str, int], dict[str, dict[str, dict[int, dict[str, Any]]]]] = defaultdict(
+        lambda: defaultdict(lambda: defaultdict(dict))
+    )
+    for r in rows:
+        if "score" in r:
+            cells[(r["demo_set"], r["k"])][r["method"]][r["task"]][r["draw"]] = r
+    settings = {}
+    for setting, per_method in cells.items():
+        methods = {}
+        for method, per_task in per_method.items():
+            tasks = sorted(per_task)
+            draws = sorted(set.intersection(*(set(per_task[t]) for t in tasks)))
+            # Task-averaged score per draw: the repetition unit for the interval.
+            per_draw = [np.mean([per_task[t][d]["score"] for t in tasks]) for d in draws]
+            methods[method] = {
+                "score": float(np.mean(per_draw)) if per_draw else float("nan"),
+                "ci95": _ci95(per_draw),
+                "draws": len(draws),
+                "tasks": {
+                    t: {
+                        "return_mean": float(
+                            np.mean([c["return_mean"] for c in per_task[t].values()])
+                        ),
+                        "return_std": float(
+                            np.std([c["return_mean"] for c in per_task[t].values()])
+                        ),
+                        "score": float(np.mean([c["score"] for c in per_task[t].values()])),
+                        "expert_return": float(next(iter(per_task[t].values()))["expert_return"]),
+                    }
+                    for t in tasks
+                },
+                "seconds_median": float(
+                    np.median([c["seconds"] for t in tasks for c in per_task[t].values()])
+                ),
+            }
+        settings[f"{setting[0]}, K={setting[1]}"] = methods
+    return {"domain": domains[0] if domains else None, "settings": settings}
+
+
+def _fmt(x: float, digits: int = 1) -> str:
+    return "–" if x is None or (isinstance(x, float) and math.isnan(x)) else f"{x:.{digits}f}"
+
+
+def _score_figure(summary: dict[str, Any], setting: str, out: Path) -> Path:
+    from fbil.envs.render import _pyplot, _save
+
+    plt = _pyplot()
+    methods = summary["settings"][setting]
+    names = _order(set(methods))
+    paper = PAPER_SCORES.get(summary["domain"], {})
+    x = np.arange(len(names))
+    fig, ax = plt.subplots(figsize=(1.0 + 0.8 * len(names), 3.2), dpi=120)
+    ours = [100 * methods[m]["score"] for m in names]
+    err = [100 * (methods[m]["ci95"] if not math.isnan(methods[m]["ci95"]) else 0) for m in names]
+    ax.bar(x - 0.2, ours, 0.4, yerr=err, capsize=2, label="fbil (cpu model)", color="tab:blue")
+    ax.bar(x + 0.2, [paper.get(m, 0) for m in names], 0.4, label="paper", color="tab:gray")
+    ax.set_xticks(
+        x, [f"{m}\n{METHODS[m].principle if m in METHODS else ''}" for m in names], fontsize=6
+    )
+    ax.set_ylabel("imitation score (%)")
+    ax.set_title(f"{summary['domain']}: {setting}", fontsize=9)
+    ax.legend(fontsize=7)
+    return _save(fig, out)
+
+
+def _time_figure(summary: dict[str, Any], setting: str, out: Path) -> Path:
+    from fbil.envs.render import _pyplot, _save
+
+    plt = _pyplot()
+    methods = summary["settings"][setting]
+    names = _order(set(methods))
+    fig, ax = plt.subplots(figsize=(1.0 + 0.7 * len(names), 3.0), dpi=120)
+    ax.bar(names, [methods[m]["seconds_median"] for m in names], color="tab:green")
+    ax.set_yscale("log")
+    ax.set_ylabel("time to policy (s, median)")
+    ax.tick_params(axis="x", labelsize=7)
+    return _save(fig, out)
+
+
+def _trajectory_figures(rows: Sequence[dict[str, Any]], out_dir: Path) -> list[tuple[str, str]]:
+    from fbil.envs.render import plot_imitation_panels
+    from fbil.imitation.demos import Demos
+
+    by_task: dict[str, dict[str, Any]] = defaultdict(dict)
+    demo_files: dict[str, str] = {}
+    for r in rows:
+        if r.get("trajectory") and r["demo_set"] == "standard" and r["k"] == 1:
+            by_task[r["task"]][r["method"]] = np.asarray(r["trajectory"])
+            demo_files[r["task"]] = r["demos"]
+    pictures = []
+    for task in sorted(by_task):
+        try:
+            demo = Demos.load(demo_files[task]).trajectories[0].observation
+        except (FbilError, OSError):
+            continue  # the demo file is not on this machine: no picture for this task
+        rollouts = {m: by_task[task][m] for m in _order(set(by_task[task]))}
+        path = plot_imitation_panels(demo, rollouts, out_dir / f"trajectories_{task}.png", task)
+        pictures.append((task, path.name))
+    return pictures
+
+
+def write_report(results: str | Path | Sequence[str | Path], out_dir: str | Path) -> Path:
+    """Write OUT/report.md (+ PNGs) from one or more results files of one domain."""
+    files = [results] if isinstance(results, (str, Path)) else list(results)
+    rows = [r for f in files for r in read_results(f, repair=False)]
+    if not rows:
+        raise FbilError(f"no results in {', '.join(map(str, files))}; run `fbil benchmark` first")
+    summary = summarise(rows)
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    domain = summary["domain"]
+    paper_scores = PAPER_SCORES.get(domain, {})
+    paper_returns = PAPER_RETURNS.get(domain, {})
+    commits = sorted({r.get("commit", "unknown") for r in rows})
+    lines = [
+        f"# fbil benchmark report: {domain}",
+        "",
+        f"Results: {', '.join(str(f) for f in files)} ({len(rows)} jobs; commits "
+        f"{', '.join(c[:10] for c in commits)}). Imitation score = return of the imitation "
+        "policy / the expert's mean return, over 1000-step episodes from the standard start. "
+        "Intervals: 95% over demo draws (task-averaged score per draw). Paper: Pirotta et al. "
+        "2024, 10 GPU-trained FB models, 1000 episodes, 20 draws.",
+        "",
+    ]
+    for setting, methods in summary["settings"].items():
+        names = _order(set(methods))
+        slug = setting.replace(", ", "_").replace("=", "")
+        lines += [f"## Imitation score ({setting})", ""]
+        lines += [
+            "| method | principle | score (%) | ±95% | draws | paper (%) | time to policy (s) |"
+        ]
+        lines += ["|---|---|---|---|---|---|---|"]
+        for m in names:
+            r = methods[m]
+            lines.append(
+                f"| {m} | {METHODS[m].principle if m in METHODS else ''} | "
+                f"{_fmt(100 * r['score'])} | {_fmt(100 * r['ci95'])} | {r['draws']} | "
+                f"{_fmt(paper_scores.get(m, float('nan')))} | {r['seconds_median']:.3f} |"
+            )
+        fig = _score_figure(summary, setting, out_dir / f"scores_{slug}.png")
+        lines += ["", f"![scores]({fig.name})", ""]
+        tasks = sorted({t for r in methods.values() for t in r["tasks"]})
+        lines += [f"### Returns per task ({setting}): fbil (paper)", ""]
+        lines += ["| method | " + " | ".join(tasks) + " |", "|---" * (len(tasks) + 1) + "|"]
+        expert = {
+            t: next(r["tasks"][t]["expert_return"] for r in methods.values() if t in r["tasks"])
+            for t in tasks
+        }
+        paper_expert = paper_returns.get("expert", {})
+        lines.append(
+            "| expert | "
+            + " | ".join(
+                f"{expert[t]:.1f} ({_fmt(paper_expert.get(t, float('nan')))})" for t in tasks
+            )
+            + " |"
+        )
+        for m in names:
+            cells = []
+            for t in tasks:
+                ours = methods[m]["tasks"].get(t)
+                paper = paper_returns.get(m, {}).get(t, float("nan"))
+                cells.append(f"{_fmt(ours['return_mean']) if ours else '–'} ({_fmt(paper)})")
+            lines.append(f"| {m} | " + " | ".join(cells) + " |")
+        lines.append("")
+    # Time to policy, from the standard K=1 setting when there is one.
+    main = next((s for s in summary["settings"] if s.startswith("standard, K=1")), None)
+    main = main or next(iter(summary["settings"]), None)
+    if main:
+        methods = summary["settings"][main]
+        fig = _time_figure(summary, main, out_dir / "time_to_policy.png")
+        lines += [
+            "## Time to policy",
+            "",
+            "Median wall time of `imitate` per job (benchmark workers share the "
+            "machine; `benchmarks/time_to_policy.py` measures on a quiet one).",
+            "",
+            "| method | fbil, CPU (s) | paper, GPU (Table 8) |",
+            "|---|---|---|",
+        ]
+        for m in _order(set(methods)):
+            lines.append(
+                f"| {m} | {methods[m]['seconds_median']:.3f} | {PAPER_TIMES.get(m, '–')} |"
+            )
+        lines += ["", f"![time to policy]({fig.name})", ""]
+        base = {m: r["score"] for m, r in methods.items()}
+        others = [s for s in summary["settings"] if s != main]
+        if others:
+            lines += ["## Other settings against the standard one", ""]
+            lines += [
+                "| method | " + " | ".join([main, *others]) + " |",
+                "|---" * (len(others) + 2) + "|",
+            ]
+            for m in _order(set(base)):
+                cells = [_fmt(100 * base[m])] + [
+                    _fmt(100 * summary["settings"][s][m]["score"])
+                    if m in summary["settings"][s]
+                    else "–"
+                    for s in others
+                ]
+                lines.append(f"| {m} | " + " | ".join(cells) + " |")
+            lines.append("")
+    if domain == "point_mass_maze":
+        pictures = _trajectory_figures(rows, out_dir)
+        if pictures:
+            lines += ["## Demonstration (red) against each method's rollout (green)", ""]
+            for task, name in pictures:
+                lines += [f"### {task}", "", f"![{task}]({name})", ""]
+    report = out_dir / "report.md"
+    atomic_write_text(report, "\n".join(lines) + "\n")
+    return report
