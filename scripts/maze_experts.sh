@@ -4,10 +4,10 @@
 # Usage: scripts/maze_experts.sh [DATA_DIR] [RUNS_DIR] [DEMOS_DIR] [STEPS] [THREADS]
 # Resumable: a finished expert is skipped, an interrupted one continues from its checkpoint.
 set -euo pipefail
-DATA=${1:-datasets/point_mass_maze/rnd}
+DATA=${1:-datasets/point_mass_maze/rnd_uniform}
 RUNS=${2:-runs/experts/point_mass_maze}
 DEMOS=${3:-artifacts/demos/point_mass_maze}
-STEPS=${4:-200000}
+STEPS=${4:-40000}
 THREADS=${5:-1}
 TASKS="reach_top_left reach_top_right reach_bottom_left reach_bottom_right reach_bottom_left_long loop square fast_slow"
 mkdir -p "$RUNS" "$DEMOS"
@@ -17,7 +17,7 @@ for task in $TASKS; do
     resume=""
     [ -f "$out/checkpoint.safetensors" ] && resume="--resume"
     fbil expert point_mass_maze "$task" --mode offline --data "$DATA" --out "$out" \
-      --steps "$STEPS" --eval-every 20000 --threads "$THREADS" $resume
+      --steps "$STEPS" --eval-every 10000 --threads "$THREADS" $resume
   fi
   [ -f "$DEMOS/$task.npz" ] || fbil demos "$out" --episodes 20 --out "$DEMOS/$task.npz" --seed 0
   [ -f "$DEMOS/${task}_shifted.npz" ] || \

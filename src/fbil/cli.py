@@ -470,6 +470,33 @@ def _cmd_benchmark(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_demo(args: argparse.Namespace) -> int:
+    import time
+
+    import torch
+
+    from fbil.evaluation.demo import run_demo
+
+    started = time.perf_counter()
+    if args.threads:
+        torch.set_num_threads(args.threads)
+    out = run_demo(args.task, args.methods, args.episodes, args.out)
+    print(
+        f"fbil demo: imitating one expert demonstration of point_mass_maze/{out['task']} "
+        f"with the committed cpu FB model ({out['episodes']} evaluation episodes per method)"
+    )
+    print(f"expert return: {out['expert_return']:.1f}")
+    print(f"{'method':<10}{'IL principle':<26}{'time to policy':>15}{'return':>18}{'score':>8}")
+    for m, r in out["results"].items():
+        ret = f"{r.return_mean:.1f} ± {r.return_std:.1f}"
+        print(f"{m:<10}{r.principle:<26}{r.seconds:>13.3f} s{ret:>18}{100 * r.score:>7.1f}%")
+    for m, why in out["skipped"].items():
+        print(f"{m:<10}skipped: {why}")
+    print(f"figure: {out['picture']}")
+    print(f"total: {time.perf_counter() - started:.1f} s")
+    return 0
+
+
 def _cmd_report(args: argparse.Namespace) -> int:
     from fbil.evaluation.report import write_report
 
@@ -639,6 +666,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=_cmd_benchmark)
+
+    p = sub.add_parser("demo", help="imitate a maze demo with every method (shipped model)")
+    p.add_argument("--task", default="loop", help="maze task whose committed demo to imitate")
+    p.add_argument("--methods", default="all", help="all or a comma list")
+    p.add_argument("--episodes", type=int, default=10, help="evaluation episodes per method")
+    p.add_argument("--out", default="fbil-demo", help="folder for the figure")
+    p.add_argument("--threads", type=int, default=None)
+    p.set_defaults(func=_cmd_demo)
 
     p = sub.add_parser("report", help="Markdown + figures from benchmark results")
     p.add_argument("results", nargs="+", help="results file(s) of one domain")

@@ -1,0 +1,45 @@
+"""`fbil demo` end to end on the committed maze model and demonstrations."""
+
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+ARTIFACTS = Path(__file__).resolve().parents[2] / "artifacts"
+
+
+def run(*args: str, env: dict[str, str] | None = None) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "fbil", "demo", *args],
+        capture_output=True,
+        text=True,
+        timeout=600,
+        env={**os.environ, **(env or {})},
+    )
+
+
+def test_demo_imitates_and_draws_on_the_committed_artifacts(tmp_path: Path) -> None:
+    res = run("--episodes", "1", "--methods", "erfb,goalfb", "--out", str(tmp_path))
+    assert res.returncode == 0, res.stderr
+    lines = res.stdout.splitlines()
+    assert any(line.startswith("expert return:") for line in lines)
+    for method in ("erfb", "goalfb"):
+        row = next(line for line in lines if line.startswith(method))
+        assert row.rstrip().endswith("%")
+    assert (tmp_path / "demo_loop.png").stat().st_size > 5000
+
+
+def test_a_corrupted_artifact_is_named_with_its_fix(tmp_path: Path) -> None:
+    root = tmp_path / "artifacts"
+    for part in ("models/point_mass_maze", "demos/point_mass_maze"):
+        shutil.copytree(ARTIFACTS / part, root / part)
+    demo = root / "demos/point_mass_maze/loop.npz"
+    data = bytearray(demo.read_bytes())
+    data[len(data) // 2] ^= 0xFF
+    demo.write_bytes(bytes(data))
+    res = run("--episodes", "1", "--methods", "erfb", env={"FBIL_ARTIFACTS": str(root)})
+    assert res.returncode != 0
+    message = res.stderr.strip().splitlines()
+    assert len(message) == 1 and "loop.npz" in message[0] and "regenerate" in message[0]
+    assert "Traceback" not in res.stderr

@@ -1,0 +1,174 @@
+"""The evaluation protocol, the resumable benchmark grid and the report, on a real (smoke)
+FB model, real maze episodes as demonstrations, and real files."""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fbil.data import list_episodes, load_episode
+from fbil.envs.relabel import relabel
+from fbil.errors import FbilError
+from fbil.evaluation.benchmark import make_jobs, read_results, run_benchmark
+from fbil.evaluation.evaluate import evaluate, rollout_policies
+from fbil.evaluation.report import write_report
+from fbil.fb.model import FBModel
+from fbil.imitation import Demos, Trajectory, imitate
+
+TASKS = ("reach_top_left", "square")
+
+
+@pytest.fixture(scope="module")
+def demos_dir(fixture_data: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """<task>.npz for two maze tasks: fixture episodes relabeled with each task's reward."""
+    out = tmp_path_factory.mktemp("demos")
+    episodes = [load_episode(f.path) for f in list_episodes(fixture_data)[:2]]
+    for task in TASKS:
+        trajs = []
+        for ep in episodes:
+            reward = relabel("point_mass_maze", task, ep["physics"][1:], ep["action"][1:])
+            trajs.append(Trajectory(ep["observation"], ep["action"][1:], reward.astype(np.float32)))
+        returns = [float(t.reward.sum()) for t in trajs]  # type: ignore[union-attr]
+        meta = {"domain": "point_mass_maze", "task": task, "return_mean": float(np.mean(returns))}
+        Demos(trajs, meta).save(out / f"{task}.npz")
+    return out
+
+
+def test_scores_are_returns_over_the_expert_and_reproducible(
+    smoke_model_dir: Path, demos_dir: Path
+) -> None:
+    model = FBModel.load(smoke_model_dir)
+    demos = Demos.load(demos_dir / "square.npz")
+    a = evaluate(model, demos, "erfb,goalfb", episodes=2, seed=3)
+    b = evaluate(model, demos, ["erfb", "goalfb"], episodes=2, seed=3)
+    assert a["expert_return"] == pytest.approx(demos.metadata["return_mean"])
+    for m in ("erfb", "goalfb"):
+        r = a["results"][m]
+        assert r.score == pytest.approx(r.return_mean / a["expert_return"])
+        assert r.returns == b["results"][m].returns  # same seed, same episodes
+
+
+def test_batched_methods_equal_each_method_alone(smoke_model_dir: Path, demos_dir: Path) -> None:
+    """Playing several policies side by side changes nothing for each of them."""
+    model = FBModel.load(smoke_model_dir)
+    demos = Demos.load(demos_dir / "reach_top_left.npz").select([0])
+    policies = [imitate(model, demos, m) for m in ("erfb", "goalfb")]
+    together = rollout_policies(policies, "point_mass_maze", "reach_top_left", 2, seed=1)
+    for i, p in enumerate(policies):
+        alone = rollout_policies([p], "point_mass_maze", "reach_top_left", 2, seed=1)
+        np.testing.assert_allclose(together.returns[2 * i : 2 * i + 2], alone.returns)
+
+
+def test_bad_requests_are_one_line_errors(smoke_model_dir: Path, demos_dir: Path) -> None:
+    model = FBModel.load(smoke_model_dir)
+    demos = Demos.load(demos_dir / "square.npz")
+    with pytest.raises(FbilError, match="unknown method"):
+        evaluate(model, demos, "erfb,nope", episodes=1)
+    with pytest.raises(FbilError, match="demos-per-run"):
+        evaluate(model, demos, "erfb", k=5, episodes=1)
+    no_task = Demos(demos.trajectories, {"domain": "point_mass_maze"})
+    with pytest.raises(FbilError, match="domain and task"):
+        evaluate(model, no_task, "erfb", episodes=1)
+    with pytest.raises(FbilError, match="no demonstrations for loop"):
+        make_jobs(smoke_model_dir, demos_dir, "point_mass_maze", ["loop"], ["erfb"], 1, 1, 1)
+
+
+def _benchmark_cmd(model: Path, demos: Path, out: Path) -> list[str]:
+    return [
+        sys.executable,
+        "-m",
+        "fbil",
+        "benchmark",
+        "--domain",
+        "point_mass_maze",
+        "--model",
+        str(model),
+        "--demos",
+        str(demos),
+        "--tasks",
+        ",".join(TASKS),
+        "--methods",
+        "erfb,goalfb",
+        "--repetitions",
+        "1",
+        "--episodes",
+        "2",
+        "--out",
+        str(out),
+        "--quiet",
+    ]
+
+
+def test_benchmark_killed_and_resumed_runs_every_job_once(
+    smoke_model_dir: Path, demos_dir: Path, tmp_path: Path
+) -> None:
+    out = tmp_path / "results.jsonl"
+    cmd = _benchmark_cmd(smoke_model_dir, demos_dir, out)
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    deadline = time.time() + 240
+    while time.time() < deadline and proc.poll() is None:
+        if out.exists() and out.read_text().count("\n") >= 1:
+            break
+        time.sleep(0.02)
+    os.kill(proc.pid, signal.SIGKILL)
+    proc.wait()
+    killed_with = out.read_text().count("\n")
+    assert 1 <= killed_with < 4, "the grid must be interrupted part-way for this test"
+    with open(out, "a") as fh:  # a line cut by the kill while being written
+        fh.write('{"model": "cut mid-wri')
+    res = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    assert res.returncode == 0, res.stderr
+    rows = read_results(out)
+    keys = [(r["task"], r["method"], r["draw"]) for r in rows]
+    assert sorted(keys) == sorted((t, m, 0) for t in TASKS for m in ("erfb", "goalfb"))
+    assert all(r["commit"] and r["episodes"] == 2 and len(r["returns"]) == 2 for r in rows)
+    assert all(len(r["trajectory"]) > 100 for r in rows)  # maze, draw 0: a path to draw
+    # Rerunning a finished grid runs nothing.
+    assert (
+        run_benchmark(
+            make_jobs(
+                smoke_model_dir, demos_dir, "point_mass_maze", TASKS, ["erfb", "goalfb"], 1, 1, 2
+            ),
+            out,
+        )
+        == []
+    )
+
+    report = write_report(out, tmp_path / "report")
+    text = report.read_text()
+    assert "| erfb | reward inference |" in text and "(771.9)" in text  # paper ERFB, square
+    assert (tmp_path / "report" / "trajectories_square.png").stat().st_size > 1000
+    assert (tmp_path / "report" / "time_to_policy.png").is_file()
+
+
+def test_results_files_that_cannot_be_trusted_are_refused(tmp_path: Path) -> None:
+    bad = tmp_path / "bad.jsonl"
+    bad.write_text('{"a": 1}\nnot json\n{"b": 2}\n')
+    with pytest.raises(FbilError, match="line 2 is not valid JSON"):
+        read_results(bad)
+    mixed = tmp_path / "mixed.jsonl"
+    rows = [
+        {
+            "domain": d,
+            "task": "t",
+            "method": "erfb",
+            "demo_set": "standard",
+            "k": 1,
+            "draw": 0,
+            "score": 0.5,
+            "return_mean": 1.0,
+            "expert_return": 2.0,
+            "seconds": 0.1,
+        }
+        for d in ("walker", "point_mass_maze")
+    ]
+    mixed.write_text("".join(json.dumps(r) + "\n" for r in rows))
+    with pytest.raises(FbilError, match="mix domains"):
+        write_report(mixed, tmp_path / "r")
+    assert not (tmp_path / "r" / "report.md").exists()
