@@ -16,7 +16,8 @@ from fbil.imitation.core import DemoBatch, FBLike, gradient_method
 def _terms(model: FBLike, batch: DemoBatch, z: torch.Tensor) -> tuple[torch.Tensor, ...]:
     zz = z.expand(len(batch.obs), -1)
     f = model.forward(batch.obs, zz)
-    f_next = model.forward(batch.next_obs, zz).detach()
+    with torch.no_grad():  # the target side: no graph to build
+        f_next = model.forward(batch.next_obs, zz)
     return f, f - batch.gamma * f_next
 
 
