@@ -413,17 +413,20 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
             )
         )
         return 0
-    print(
-        f"{out['domain']}/{out['task']}: K={out['k']} demo(s), {out['episodes']} episodes; "
-        f"expert return {out['expert_return']:.1f}"
-    )
-    print(f"{'method':<10}{'principle':<26}{'seconds':>9}{'return':>18}{'score':>8}")
+    print(f"{out['domain']}/{out['task']}: K={out['k']} demo(s), {out['episodes']} episodes")
+    _print_scores(out)
+    return 0
+
+
+def _print_scores(out: dict[str, Any]) -> None:
+    """The expert's return, then one row per method: principle, time, return, score."""
+    print(f"expert return: {out['expert_return']:.1f}")
+    print(f"{'method':<10}{'IL principle':<26}{'time to policy':>15}{'return':>18}{'score':>8}")
     for m, r in out["results"].items():
         ret = f"{r.return_mean:.1f} ± {r.return_std:.1f}"
-        print(f"{m:<10}{r.principle:<26}{r.seconds:>9.3f}{ret:>18}{100 * r.score:>7.1f}%")
+        print(f"{m:<10}{r.principle:<26}{r.seconds:>13.3f} s{ret:>18}{100 * r.score:>7.1f}%")
     for m, why in out["skipped"].items():
         print(f"{m:<10}skipped: {why}")
-    return 0
 
 
 def _cmd_benchmark(args: argparse.Namespace) -> int:
@@ -485,13 +488,7 @@ def _cmd_demo(args: argparse.Namespace) -> int:
         f"fbil demo: imitating one expert demonstration of point_mass_maze/{out['task']} "
         f"with the committed cpu FB model ({out['episodes']} evaluation episodes per method)"
     )
-    print(f"expert return: {out['expert_return']:.1f}")
-    print(f"{'method':<10}{'IL principle':<26}{'time to policy':>15}{'return':>18}{'score':>8}")
-    for m, r in out["results"].items():
-        ret = f"{r.return_mean:.1f} ± {r.return_std:.1f}"
-        print(f"{m:<10}{r.principle:<26}{r.seconds:>13.3f} s{ret:>18}{100 * r.score:>7.1f}%")
-    for m, why in out["skipped"].items():
-        print(f"{m:<10}skipped: {why}")
+    _print_scores(out)
     print(f"figure: {out['picture']}")
     print(f"total: {time.perf_counter() - started:.1f} s")
     return 0

@@ -172,3 +172,13 @@ def test_results_files_that_cannot_be_trusted_are_refused(tmp_path: Path) -> Non
     with pytest.raises(FbilError, match="mix domains"):
         write_report(mixed, tmp_path / "r")
     assert not (tmp_path / "r" / "report.md").exists()
+
+
+def test_the_ray_backend_runs_the_same_grid(
+    smoke_model_dir: Path, demos_dir: Path, tmp_path: Path
+) -> None:
+    pytest.importorskip("ray")
+    jobs = make_jobs(smoke_model_dir, demos_dir, "point_mass_maze", TASKS[:1], ["erfb"], 1, 1, 1)
+    local = run_benchmark(jobs, tmp_path / "local.jsonl")
+    remote = run_benchmark(jobs, tmp_path / "ray.jsonl", workers=1, backend="ray")
+    assert [r["returns"] for r in remote] == [r["returns"] for r in local]

@@ -30,6 +30,9 @@ from fbil.errors import FbilError
 from fbil.imitation.demos import Demos, Trajectory
 
 CHECKPOINT, EXPERT, LOG = "checkpoint.safetensors", "expert.json", "train_log.csv"
+# The best actor seen at the periodic evaluations: offline TD3's return oscillates between
+# evaluations on the sparse maze goals, and an expert is only a demonstrator.
+BEST = "best.safetensors"
 LOG_FIELDS = ("step", "return_mean", "return_std", "critic_loss", "q", "wall_seconds")
 
 
@@ -115,6 +118,7 @@ def train_expert(
     new_log = not log.exists()
     started = last_ckpt = time.perf_counter()
     last: dict[str, float] = {}
+    best = load_state(out / BEST)["return_mean"] if resume and (out / BEST).is_file() else None
     with open(log, "a", newline="") as fh:
         writer = csv.DictWriter(fh, LOG_FIELDS)
         if new_log:
@@ -137,6 +141,10 @@ def train_expert(
                 )
                 fh.flush()
                 bar.set_postfix(ret=f"{returns.mean():.1f}")
+                if best is None or float(returns.mean()) > float(best):
+                    best = float(returns.mean())
+                    state = {"agent": agent.state(), "step": step, "return_mean": best}
+                    save_state(out / BEST, state)
             if time.perf_counter() - last_ckpt > checkpoint_seconds:
                 save_state(
                     ckpt, {"agent": agent.state(), "step": step, "config": dataclasses.asdict(cfg)}
@@ -146,6 +154,7 @@ def train_expert(
         bar.close()
     save_state(ckpt, {"agent": agent.state(), "step": step, "config": dataclasses.asdict(cfg)})
     returns = evaluate(agent, domain, task, eval_episodes, seed)
+    best_state = load_state(out / BEST) if (out / BEST).is_file() else None
     meta = {
         "domain": domain,
         "task": task,
@@ -156,6 +165,8 @@ def train_expert(
         "data": str(data) if data else None,
         "return_mean": float(returns.mean()),
         "return_std": float(returns.std()),
+        "best_step": int(best_state["step"]) if best_state else step,
+        "best_return_mean": float(best_state["return_mean"]) if best_state else None,
         "fbil_version": __version__,
         "command": command,
     }
@@ -252,7 +263,10 @@ def load_expert(directory: str | Path) -> tuple[TD3, dict[str, Any]]:
     spec = get_domain(meta["domain"])
     cfg = config_from_dict(TD3Config, meta["config"], "TD3 config")
     agent = TD3(spec.obs_dim, spec.act_dim, cfg)
-    agent.load(load_state(ckpt)["agent"])
+    # Demonstrations come from the best evaluated actor when there is one.
+    source = directory / BEST if (directory / BEST).is_file() else ckpt
+    agent.load(load_state(source)["agent"])
+    meta["actor"] = source.name
     return agent, meta
 
 
