@@ -1,5 +1,6 @@
 """TD3 experts: offline learning on the fixture, demonstrations, shifted starts, errors."""
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -88,3 +89,13 @@ def test_expert_errors_are_one_line(fixture_data: Path, tmp_path: Path) -> None:
         load_expert(tmp_path / "empty")
     with pytest.raises(FbilError, match="needs --data"):
         train_expert("point_mass_maze", "loop", "offline", tmp_path / "c")
+
+
+def test_demos_come_from_the_best_evaluated_actor(expert_dir: Path) -> None:
+    """The expert keeps the actor of its best evaluation, and demos are recorded with it."""
+    rows = (expert_dir / "train_log.csv").read_text().splitlines()[1:]
+    returns = [float(r.split(",")[1]) for r in rows]
+    meta = json.loads((expert_dir / "expert.json").read_text())
+    assert meta["best_return_mean"] == pytest.approx(max(returns), abs=0.01)
+    _, loaded = load_expert(expert_dir)
+    assert loaded["actor"] == "best.safetensors"
