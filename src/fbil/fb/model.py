@@ -43,6 +43,23 @@ def embedding(inp: int, hidden: int, out: int) -> nn.Sequential:
     )
 
 
+class ObsNorm(nn.Module):
+    """(obs - mean) / std with the training data's statistics, saved with the model."""
+
+    obs_stats: torch.Tensor
+
+    def __init__(self, obs_dim: int) -> None:
+        super().__init__()
+        self.register_buffer("obs_stats", torch.stack([torch.zeros(obs_dim), torch.ones(obs_dim)]))
+
+    def forward(self, obs: torch.Tensor) -> torch.Tensor:
+        return (obs - self.obs_stats[0]) / self.obs_stats[1]
+
+
+def obs_norm(cfg: FBModelConfig) -> nn.Module:
+    return ObsNorm(cfg.obs_dim) if cfg.normalize_obs else nn.Identity()
+
+
 class TwinHead(nn.Module):
     """k MLP heads over one input, computed as batched matmuls (one pass for all heads)."""
 
@@ -74,6 +91,7 @@ class BackwardNet(nn.Module):
     def __init__(self, cfg: FBModelConfig) -> None:
         super().__init__()
         h = cfg.b_hidden
+        self.obs_norm = obs_norm(cfg)
         self.net = nn.Sequential(
             nn.Linear(cfg.obs_dim, h),
             nn.LayerNorm(h),
@@ -88,7 +106,7 @@ class BackwardNet(nn.Module):
             self.bn = nn.BatchNorm1d(cfg.z_dim, affine=False, momentum=0.01)
 
     def forward(self, obs: torch.Tensor) -> torch.Tensor:
-        b = self.net(obs)
+        b = self.net(self.obs_norm(obs))
         if self.norm == "l2":
             return math.sqrt(self.z_dim) * nn.functional.normalize(b, dim=-1)
         if self.norm == "batchnorm":
@@ -100,12 +118,14 @@ class ForwardNet(nn.Module):
     def __init__(self, cfg: FBModelConfig) -> None:
         super().__init__()
         h, e = cfg.f_hidden, cfg.f_embed
+        self.obs_norm = obs_norm(cfg)
         self.sa = embedding(cfg.obs_dim + cfg.act_dim, h, e)
         self.sz = embedding(cfg.obs_dim + cfg.z_dim, h, e)
         self.heads = TwinHead(2 * e, h, cfg.z_dim, layers=2 if cfg.extra_layer else 1)
 
     def forward(self, obs: torch.Tensor, z: torch.Tensor, action: torch.Tensor) -> torch.Tensor:
         """(2, N, d): both heads."""
+        obs = self.obs_norm(obs)
         x = torch.cat([self.sa(torch.cat([obs, action], -1)), self.sz(torch.cat([obs, z], -1))], -1)
         return self.heads(x)
 
@@ -114,6 +134,7 @@ class Actor(nn.Module):
     def __init__(self, cfg: FBModelConfig) -> None:
         super().__init__()
         h, e = cfg.f_hidden, cfg.f_embed
+        self.obs_norm = obs_norm(cfg)
         self.s = embedding(cfg.obs_dim, h, e)
         self.sz = embedding(cfg.obs_dim + cfg.z_dim, h, e)
         layers: list[nn.Module] = [nn.Linear(2 * e, h), nn.ReLU()]
@@ -122,6 +143,7 @@ class Actor(nn.Module):
         self.head = nn.Sequential(*layers, nn.Linear(h, cfg.act_dim), nn.Tanh())
 
     def forward(self, obs: torch.Tensor, z: torch.Tensor) -> torch.Tensor:
+        obs = self.obs_norm(obs)
         return self.head(torch.cat([self.s(obs), self.sz(torch.cat([obs, z], -1))], -1))
 
 
@@ -250,6 +272,15 @@ class FBModel(nn.Module):
             raise FbilError(f"{w_path}: tensors do not match {CONFIG} ({problem}); retrain")
         model.load_state_dict(state)
         return model.frozen()
+
+    @torch.no_grad()
+    def set_obs_stats(self, observations: np.ndarray) -> None:
+        """Set the input standardisation (normalize_obs models) from a dataset's states."""
+        obs = torch.as_tensor(observations, dtype=torch.float64)
+        stats = torch.stack([obs.mean(0), obs.std(0).clamp_min(1e-3)]).float()
+        for module in self.modules():
+            if isinstance(module, ObsNorm):
+                module.obs_stats.copy_(stats.to(module.obs_stats.device))
 
     def frozen(self) -> FBModel:
         """Eval mode, no parameter gradients (z can still require grad)."""

@@ -79,7 +79,10 @@ class FBTrainer:
         self.mcfg, self.cfg, self.dataset = model_config, train_config, dataset
         self.device = torch.device(device)
         torch.manual_seed(train_config.seed)
-        self.model = FBModel(model_config).to(self.device).train()
+        self.model = FBModel(model_config).train()
+        if model_config.normalize_obs:
+            self.model.set_obs_stats(dataset.observation)
+        self.model.to(self.device)
         self.f_target = copy.deepcopy(self.model.forward_net).requires_grad_(False)
         self.b_target = copy.deepcopy(self.model.backward_net).requires_grad_(False)
         self.opt_fb = torch.optim.Adam(
