@@ -121,3 +121,27 @@ def test_zero_shot_cli_reports_every_maze_task(
     tasks = json.loads(res.stdout)["tasks"]
     assert list(tasks) == EXPECTED["point_mass_maze"][2]
     assert all(t["episodes"] == 2 and math.isfinite(t["return_mean"]) for t in tasks.values())
+
+
+def test_standardised_inputs_use_the_data_statistics_and_survive_save_load(
+    fixture_data: Path, tmp_path: Path
+) -> None:
+    cfg = FBModelConfig(
+        obs_dim=4, act_dim=2, z_dim=8, b_hidden=16, f_hidden=16, f_embed=8, normalize_obs=True
+    )
+    model = FBModel(cfg)
+    obs = load_dataset(fixture_data).observation
+    model.set_obs_stats(obs)
+    model.save(tmp_path / "m")
+    back = FBModel.load(tmp_path / "m")
+    for net in (back.backward_net, back.forward_net, back.actor):
+        stats = net.obs_norm.obs_stats.double()
+        torch.testing.assert_close(stats[0], torch.from_numpy(obs).double().mean(0))
+        torch.testing.assert_close(stats[1], torch.from_numpy(obs).double().std(0).clamp_min(1e-3))
+    # Shifting the data by a constant and the statistics with it changes no output.
+    x, z = torch.from_numpy(obs[:5]), back.sample_z(5)
+    shifted = FBModel(cfg)
+    shifted.load_state_dict(back.state_dict())
+    shifted.set_obs_stats(obs + 1.0)
+    torch.testing.assert_close(shifted.backward(x + 1.0), back.backward(x), rtol=1e-4, atol=1e-4)
+    torch.testing.assert_close(shifted.act(x + 1.0, z), back.act(x, z), rtol=1e-4, atol=1e-4)
