@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import torch
 
-from fbil.agents.expert import load_expert, make_demos, train_expert
+from fbil.agents.expert import load_expert, make_demos, offline_sampler, train_expert
 from fbil.agents.td3 import TD3, TD3Config
 from fbil.data import load_dataset
 from fbil.errors import FbilError
@@ -99,3 +99,21 @@ def test_demos_come_from_the_best_evaluated_actor(expert_dir: Path) -> None:
     assert meta["best_return_mean"] == pytest.approx(max(returns), abs=0.01)
     _, loaded = load_expert(expert_dir)
     assert loaded["actor"] == "best.safetensors"
+
+
+def test_nstep_samples_sum_discounted_rewards_within_one_episode(fixture_data: Path) -> None:
+    data = load_dataset(fixture_data)
+    cfg = TD3Config(nstep=5, batch_size=512, gamma=0.9)
+    obs, act, ret, nxt, disc = offline_sampler(data, "reach_top_left", cfg, torch.Generator())()
+    rewards = data.reward("reach_top_left")
+    position = {tuple(o): i for i, o in enumerate(data.observation.tolist())}
+    for b in range(64):
+        start = position[tuple(obs[b].tolist())]  # state index of s
+        end = data.state_episode_end[start]
+        assert start + 5 <= end  # all five steps inside the episode
+        np.testing.assert_allclose(nxt[b].numpy(), data.observation[start + 5])
+        np.testing.assert_allclose(act[b].numpy(), data.action[start + 1])
+        rows = np.searchsorted(data.next_index, np.arange(start + 1, start + 6))
+        expected = sum(0.9**i * rewards[r] for i, r in enumerate(rows))
+        assert float(ret[b]) == pytest.approx(float(expected), rel=1e-5, abs=1e-6)
+    torch.testing.assert_close(disc, torch.full_like(disc, 0.9**4))

@@ -11,6 +11,7 @@ import csv
 import dataclasses
 import json
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -97,17 +98,7 @@ def train_expert(
         dataset = load_dataset(data, domain=domain)  # type: ignore[arg-type]
         if not resume:
             agent.set_obs_stats(dataset.observation)
-        j = torch.from_numpy(dataset.next_index)
-        obs_all = torch.from_numpy(dataset.observation)
-        act_all = torch.from_numpy(dataset.action)
-        rew_all = torch.from_numpy(dataset.reward(task))
-        disc_all = torch.from_numpy(dataset.discount)
-
-        def sample() -> tuple[torch.Tensor, ...]:
-            k = j[torch.randint(0, len(j), (cfg.batch_size,), generator=agent.gen)]
-            r = rew_all[torch.searchsorted(j, k)]
-            return obs_all[k - 1], act_all[k], r, obs_all[k], disc_all[k]
-
+        sample = offline_sampler(dataset, task, cfg, agent.gen)
         learner: Any = _OfflineLoop(agent, sample)
     else:
         learner = _OnlineLoop(agent, domain, task, num_envs, start_steps, seed, step)
@@ -172,6 +163,36 @@ def train_expert(
     }
     atomic_write_text(out / EXPERT, json.dumps(meta, indent=2) + "\n")
     return meta
+
+
+def offline_sampler(
+    dataset: Any, task: str, cfg: TD3Config, gen: torch.Generator
+) -> Callable[[], tuple[torch.Tensor, ...]]:
+    """Minibatches (s, a, R, s_n, discount) of n-step transitions (n = cfg.nstep) from the
+    dataset relabeled with `task`: R = sum_i gamma^i r_i along one episode, s_n the state
+    n steps later, discount = gamma^(n-1) (TD3's update multiplies by gamma once more)."""
+    j = torch.from_numpy(dataset.next_index)
+    obs_all = torch.from_numpy(dataset.observation)
+    act_all = torch.from_numpy(dataset.action)
+    rew_all = torch.from_numpy(dataset.reward(task))
+    disc_all = torch.from_numpy(dataset.discount)
+    n = cfg.nstep
+    if n < 1:
+        raise FbilError(f"nstep must be >= 1, got {n}")
+    # Start rows p whose next n transitions stay inside one episode.
+    p_ok = torch.arange(len(j) - n + 1)
+    p_ok = p_ok[j[p_ok + n - 1] == j[p_ok] + n - 1]
+    powers = cfg.gamma ** torch.arange(n, dtype=torch.float32)
+
+    def sample() -> tuple[torch.Tensor, ...]:
+        p = p_ok[torch.randint(0, len(p_ok), (cfg.batch_size,), generator=gen)]
+        rows = p[:, None] + torch.arange(n)  # (B, n) consecutive transitions
+        reward = (rew_all[rows] * powers).sum(-1)
+        # Bootstrapping weight gamma^(n-1) * prod(discounts); update multiplies by gamma.
+        discount = cfg.gamma ** (n - 1) * disc_all[j[rows]].prod(-1)
+        return obs_all[j[p] - 1], act_all[j[p]], reward, obs_all[j[p + n - 1]], discount
+
+    return sample
 
 
 class _OfflineLoop:
