@@ -160,7 +160,10 @@ def run_job(job: Job, commit: str = "unknown") -> dict[str, Any]:
         seed=job.seed,
     )
     row: dict[str, Any] = asdict(job)
+    from fbil.imitation.core import OptimiserConfig
+
     row.update(expert_return=out["expert_return"], commit=commit, fbil_version=__version__)
+    row["optimiser"] = asdict(OptimiserConfig())
     if job.method in out["skipped"]:
         row.update(skipped=out["skipped"][job.method])
     else:

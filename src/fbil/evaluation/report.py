@@ -204,6 +204,14 @@ def write_report(results: str | Path | Sequence[str | Path], out_dir: str | Path
                 paper = paper_returns.get(m, {}).get(t, float("nan"))
                 cells.append(f"{_fmt(ours['return_mean']) if ours else '–'} ({_fmt(paper)})")
             lines.append(f"| {m} | " + " | ".join(cells) + " |")
+        # Per-task scores: one task with a weak or negative-return expert can dominate
+        # the mean, and this table shows which.
+        lines += ["", f"### Imitation score per task ({setting}, %)", ""]
+        lines += ["| method | " + " | ".join(tasks) + " |", "|---" * (len(tasks) + 1) + "|"]
+        for m in names:
+            per = methods[m]["tasks"]
+            cells = [_fmt(100 * per[t]["score"]) if t in per else "–" for t in tasks]
+            lines.append(f"| {m} | " + " | ".join(cells) + " |")
         lines.append("")
     # Time to policy, from the standard K=1 setting when there is one.
     main = next((s for s in summary["settings"] if s.startswith("standard, K=1")), None)
