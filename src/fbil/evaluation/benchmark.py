@@ -149,7 +149,13 @@ def run_job(job: Job, commit: str = "unknown") -> dict[str, Any]:
     """Imitate and evaluate one grid cell; the result is one JSON-able row."""
     from fbil.evaluation.evaluate import evaluate
 
+    from fbil.evaluation.evaluate import expert_return
+
     started = time.perf_counter()
+    # Scores divide by the expert's return from the *standard* start, where evaluation
+    # starts, also for demos recorded elsewhere (paper App. E.5).
+    standard = demo_file(Path(job.demos).parent, job.task, "standard")
+    expert = expert_return(_demos(str(standard))) if job.demo_set != "standard" else None
     out = evaluate(
         _model(job.model),
         _demos(job.demos),
@@ -158,6 +164,7 @@ def run_job(job: Job, commit: str = "unknown") -> dict[str, Any]:
         draw=job.draw,
         episodes=job.episodes,
         seed=job.seed,
+        expert=expert,
     )
     row: dict[str, Any] = asdict(job)
     from fbil.imitation.core import OptimiserConfig

@@ -134,11 +134,13 @@ def evaluate(
     episodes: int = 10,
     seed: int = 0,
     optimiser: OptimiserConfig | None = None,
+    expert: float | None = None,
 ) -> dict[str, Any]:
-    """Imitate draw `draw` of K demos with each method, evaluate, score against the expert."""
+    """Imitate draw `draw` of K demos with each method, evaluate, score against the expert
+    (`expert`: its mean return from the standard start; default: the demos' own record)."""
     names = resolve_methods(methods)
     domain, task = demos_task(demos, model)
-    expert = expert_return(demos)
+    expert = expert_return(demos) if expert is None else float(expert)
     if expert <= 0:
         raise FbilError(f"the expert's mean return is {expert}; scores need a positive one")
     chosen = demo_draw(demos, k, draw)
