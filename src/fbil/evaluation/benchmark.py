@@ -147,9 +147,7 @@ def _demos(path: str) -> Any:
 
 def run_job(job: Job, commit: str = "unknown") -> dict[str, Any]:
     """Imitate and evaluate one grid cell; the result is one JSON-able row."""
-    from fbil.evaluation.evaluate import evaluate
-
-    from fbil.evaluation.evaluate import expert_return
+    from fbil.evaluation.evaluate import evaluate, expert_return
 
     started = time.perf_counter()
     # Scores divide by the expert's return from the *standard* start, where evaluation
