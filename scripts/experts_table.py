@@ -53,7 +53,12 @@ def main(demos_dir: str, experts_dir: str) -> None:
         0,
         round(wall, 1),
         git_commit(),
-        {"updates": steps, "data": "datasets/point_mass_maze/rnd_uniform"},
+        {
+            "updates": steps,
+            "data": "datasets/point_mass_maze/rnd_uniform",
+            "note": "tasks with more than 30 000 updates were continued with `fbil expert ... "
+            "--resume --steps N --set nstep=10` and their demos recorded again",
+        },
     )
 
 
