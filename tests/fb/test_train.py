@@ -73,3 +73,23 @@ def test_kill_and_resume_reproduces_straight_training(tmp_path: Path) -> None:
         torch.testing.assert_close(a[key], b[key], rtol=1e-6, atol=1e-7, msg=key)
     steps_logged = [int(r.split(",")[0]) for r in (out / "train_log.csv").read_text().split()[1:]]
     assert steps_logged == sorted(set(steps_logged)) and steps_logged[-1] == steps
+
+
+def test_nstep_target_samples_within_episodes_and_trains(fixture_data: Path) -> None:
+    import dataclasses
+
+    from fbil.data import load_dataset
+    from fbil.fb.config import preset
+    from fbil.fb.train import FBTrainer
+
+    data = load_dataset(fixture_data)
+    model_cfg, train_cfg = preset("point_mass_maze", "smoke")
+    trainer = FBTrainer(model_cfg, dataclasses.replace(train_cfg, nstep=4), data)
+    rows = trainer.nstep_rows
+    first, last = trainer.next_index[rows], trainer.next_index[rows + 3]
+    ends = torch.from_numpy(data.state_episode_end)
+    assert torch.all(last == first + 3) and torch.all(last <= ends[first])
+    torch.testing.assert_close(trainer.k_probs.sum(), torch.tensor(1.0))
+    for _ in range(5):
+        out = trainer.update()
+    assert all(torch.isfinite(v) for v in out.values())

@@ -48,10 +48,16 @@ class FBTrainConfig:
     checkpoint_seconds: float = 180.0
     snapshot_model: bool = True  # also save the usable model (with Cov B) at checkpoints
     precision: Precision = "fp32"  # "bf16": networks under bf16 autocast, losses in fp32
+    # n-step target (experimental; 1 = the paper's loss): M(s_t, a_t) is matched to
+    # sum_{k<n} gamma^k delta(s_{t+k+1}) + gamma^n M(s_{t+n}, pi_z) along the data's episodes;
+    # the measure term uses one k per row drawn with probability ~ gamma^k (unbiased).
+    nstep: int = 1
 
     def __post_init__(self) -> None:
         if self.precision not in ("fp32", "bf16"):
             raise FbilError(f"unknown precision {self.precision!r}; valid: fp32, bf16")
+        if self.nstep < 1:
+            raise FbilError(f"nstep must be >= 1, got {self.nstep}")
 
 
 PRESETS = ("paper", "cpu", "smoke")

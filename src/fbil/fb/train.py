@@ -99,6 +99,14 @@ class FBTrainer:
         self.next_index = torch.from_numpy(dataset.next_index).to(self.device)
         self.step = 0
         self.sqrt_d = math.sqrt(model_config.z_dim)
+        if train_config.nstep > 1:
+            k = train_config.nstep
+            p = torch.arange(len(self.next_index) - k + 1, device=self.device)
+            # Rows whose next k transitions stay inside one episode.
+            self.nstep_rows = p[self.next_index[p + k - 1] == self.next_index[p] + k - 1]
+            w = train_config.gamma ** torch.arange(k, dtype=torch.float64)
+            self.k_probs = (w / w.sum()).float()
+            self.measure_mass = float(w.sum())  # sum_{k<n} gamma^k
 
     # -- one update ------------------------------------------------------------------------
     def _noise(self, like: torch.Tensor) -> torch.Tensor:
@@ -108,9 +116,18 @@ class FBTrainer:
     def update(self) -> dict[str, torch.Tensor]:
         cfg, m = self.cfg, self.model
         n = cfg.batch_size
-        rows = torch.randint(0, len(self.next_index), (n,), generator=self.gen).to(self.device)
+        steps = cfg.nstep
+        if steps == 1:
+            rows = torch.randint(0, len(self.next_index), (n,), generator=self.gen)
+            rows = rows.to(self.device)
+        else:
+            pick = torch.randint(0, len(self.nstep_rows), (n,), generator=self.gen)
+            rows = self.nstep_rows[pick.to(self.device)]
+            k = torch.multinomial(self.k_probs, n, replacement=True, generator=self.gen)
+            far_obs = self.obs[self.next_index[rows + k.to(self.device)]]  # s_{t+k+1}
         j = self.next_index[rows]
         obs, action, next_obs = self.obs[j - 1], self.action[j], self.obs[j]
+        boot_obs = next_obs if steps == 1 else self.obs[self.next_index[rows + steps - 1]]
 
         # bf16 autocast runs the networks' matmuls at ~2-3x the fp32 rate on AVX-512 CPUs;
         # the n x n Gram products and the losses stay in fp32 (M reaches 1e3, and the TD
@@ -126,15 +143,20 @@ class FBTrainer:
 
         with torch.no_grad():
             with amp:
-                next_action = (m.actor(next_obs, z) + self._noise(action)).clamp(-1, 1)
-                f_tgt = self.f_target(next_obs, z, next_action).float()  # (2, n, d)
+                next_action = (m.actor(boot_obs, z) + self._noise(action)).clamp(-1, 1)
+                f_tgt = self.f_target(boot_obs, z, next_action).float()  # (2, n, d)
                 b_tgt = self.b_target(next_obs).float()
             target = torch.matmul(f_tgt, b_tgt.T).min(0).values  # (n, n)
         with amp:
             f = m.forward_net(obs, z, action).float()  # (2, n, d)
         big_m = torch.matmul(f, b_next.T)  # (2, n, n)
-        fb_offdiag = 0.5 * _offdiag_mean_sq(big_m - cfg.gamma * target).sum()
-        fb_diag = -big_m.diagonal(dim1=-2, dim2=-1).mean(-1).sum()
+        fb_offdiag = 0.5 * _offdiag_mean_sq(big_m - cfg.gamma**steps * target).sum()
+        if steps == 1:
+            fb_diag = -big_m.diagonal(dim1=-2, dim2=-1).mean(-1).sum()
+        else:
+            with amp:
+                b_far = m.backward_net(far_obs).float()
+            fb_diag = -self.measure_mass * (f * b_far).sum(-1).mean(-1).sum()
         cov = b_next @ b_next.T
         ortho_loss = _offdiag_mean_sq(cov) - 2 * cov.diagonal().mean()
         loss = fb_offdiag + fb_diag + cfg.ortho_coef * ortho_loss
