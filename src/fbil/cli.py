@@ -344,6 +344,8 @@ def _cmd_expert(args: argparse.Namespace) -> int:
         config=config,
         resume=args.resume,
         eval_every=args.eval_every,
+        num_envs=args.num_envs,
+        start_steps=args.start_steps,
         progress=not args.json,
         command=" ".join(["fbil", *sys.argv[1:]]),
     )
@@ -608,6 +610,18 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True)
     p.add_argument("--steps", type=int, default=100_000, help="gradient steps")
     p.add_argument("--eval-every", type=int, default=10_000)
+    p.add_argument(
+        "--num-envs",
+        type=int,
+        default=1,
+        help="online: environments stepped per gradient step (1: one update per env step)",
+    )
+    p.add_argument(
+        "--start-steps",
+        type=int,
+        default=10_000,
+        help="online: env steps of uniform random actions before learning starts",
+    )
     p.add_argument(
         "--bc-alpha",
         type=float,

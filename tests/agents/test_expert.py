@@ -117,3 +117,41 @@ def test_nstep_samples_sum_discounted_rewards_within_one_episode(fixture_data: P
         expected = sum(0.9**i * rewards[r] for i, r in enumerate(rows))
         assert float(ret[b]) == pytest.approx(float(expected), rel=1e-5, abs=1e-6)
     torch.testing.assert_close(disc, torch.full_like(disc, 0.9**4))
+
+
+def test_online_nstep_samples_follow_one_env_within_one_episode() -> None:
+    from fbil.agents.expert import _OnlineLoop
+
+    cfg = TD3Config(hidden=32, batch_size=64, nstep=3)
+    agent = TD3(4, 2, cfg, seed=0)
+    # Huge start_steps: random actions, no updates; 2 envs interleave rows in the buffer.
+    loop = _OnlineLoop(agent, "point_mass_maze", "loop", 2, 10**9, seed=0, step=0)
+    for _ in range(40):
+        loop.step()
+    obs, act, reward, next_obs, discount = loop.sample()
+    assert len(obs) > 0
+    batch = (obs.numpy(), act.numpy(), reward.numpy(), next_obs.numpy())
+    for s, a, r, s_n in zip(*batch, strict=True):
+        n = loop.size
+        (k,) = np.flatnonzero((loop.obs[:n] == s).all(-1) & (loop.act[:n] == a).all(-1))
+        same_env = k + 2 * np.arange(3)  # the same env's next two rows
+        assert (loop.t[same_env] == loop.t[k] + np.arange(3)).all()
+        np.testing.assert_allclose(r, (loop.rew[same_env] * 0.99 ** np.arange(3)).sum(), 1e-5)
+        np.testing.assert_array_equal(s_n, loop.next_obs[same_env[-1]])
+    np.testing.assert_allclose(discount.numpy(), 0.99**2)
+
+
+def test_online_resume_keeps_the_replay_buffer(tmp_path: Path) -> None:
+    from fbil.checkpoint import load_state
+
+    out = tmp_path / "online"
+    kw = dict(config=TD3Config(hidden=32, batch_size=16), eval_episodes=1, progress=False)
+    kw |= dict(start_steps=10, checkpoint_seconds=0.0)
+    train_expert("point_mass_maze", "loop", "online", out, steps=30, eval_every=30, **kw)
+    first = load_state(out / "checkpoint.safetensors")["learner"]
+    assert len(first["rew"]) == 30
+    kw |= dict(resume=True)
+    train_expert("point_mass_maze", "loop", "online", out, steps=50, eval_every=50, **kw)
+    second = load_state(out / "checkpoint.safetensors")
+    assert second["step"] == 50 and len(second["learner"]["rew"]) == 50
+    torch.testing.assert_close(second["learner"]["obs"][:30], first["obs"])

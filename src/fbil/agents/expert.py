@@ -65,7 +65,7 @@ def train_expert(
     eval_every: int = 10_000,
     eval_episodes: int = 10,
     checkpoint_seconds: float = 180.0,
-    num_envs: int = 4,
+    num_envs: int = 1,
     start_steps: int = 10_000,
     progress: bool = True,
     command: str = "",
@@ -74,6 +74,8 @@ def train_expert(
     get_task(domain, task)
     if mode not in ("offline", "online"):
         raise FbilError(f"unknown mode {mode!r}; valid modes: offline, online")
+    if num_envs < 1 or start_steps < 0:
+        raise FbilError("--num-envs must be >= 1 and --start-steps >= 0")
     if mode == "offline" and data is None:
         raise FbilError("--mode offline needs --data DIR (a dataset to relabel with the task)")
     out = Path(out)
@@ -85,6 +87,7 @@ def train_expert(
     cfg = config or TD3Config()
     agent = TD3(spec.obs_dim, spec.act_dim, cfg, seed)
     step = 0
+    learner_state: dict[str, Any] = {}
     if resume:
         state = load_state(ckpt)
         saved = config_from_dict(TD3Config, state["config"], "TD3 config")
@@ -92,6 +95,7 @@ def train_expert(
             raise FbilError(f"{ckpt} was trained with another TD3 config; resume with the same")
         agent.load(state["agent"])
         step = int(state["step"])
+        learner_state = state.get("learner") or {}  # experts saved before 0.1 have none
     out.mkdir(parents=True, exist_ok=True)
 
     if mode == "offline":
@@ -102,6 +106,8 @@ def train_expert(
         learner: Any = _OfflineLoop(agent, sample)
     else:
         learner = _OnlineLoop(agent, domain, task, num_envs, start_steps, seed, step)
+    if resume and learner_state:
+        learner.load(learner_state)
 
     log = out / LOG
     if resume:
@@ -137,13 +143,11 @@ def train_expert(
                     state = {"agent": agent.state(), "step": step, "return_mean": best}
                     save_state(out / BEST, state)
             if time.perf_counter() - last_ckpt > checkpoint_seconds:
-                save_state(
-                    ckpt, {"agent": agent.state(), "step": step, "config": dataclasses.asdict(cfg)}
-                )
+                save_state(ckpt, _checkpoint(agent, learner, step, cfg))
                 last_ckpt = time.perf_counter()
             bar.update(1)
         bar.close()
-    save_state(ckpt, {"agent": agent.state(), "step": step, "config": dataclasses.asdict(cfg)})
+    save_state(ckpt, _checkpoint(agent, learner, step, cfg))
     returns = evaluate(agent, domain, task, eval_episodes, seed)
     best_state = load_state(out / BEST) if (out / BEST).is_file() else None
     meta = {
@@ -163,6 +167,15 @@ def train_expert(
     }
     atomic_write_text(out / EXPERT, json.dumps(meta, indent=2) + "\n")
     return meta
+
+
+def _checkpoint(agent: TD3, learner: Any, step: int, cfg: TD3Config) -> dict[str, Any]:
+    return {
+        "agent": agent.state(),
+        "step": step,
+        "config": dataclasses.asdict(cfg),
+        "learner": learner.state(),
+    }
 
 
 def offline_sampler(
@@ -202,9 +215,19 @@ class _OfflineLoop:
     def step(self) -> dict[str, float]:
         return self.agent.update(*self.sample())
 
+    def state(self) -> dict[str, Any]:
+        return {}  # the sampler's generator is the agent's, saved with it
+
+    def load(self, state: dict[str, Any]) -> None:
+        pass
+
 
 class _OnlineLoop:
-    """One environment step of `num_envs` environments, then one update per env-step."""
+    """One environment step of `num_envs` environments, then one TD3 update.
+
+    The replay buffer stores rows in order, `num_envs` per step, with each row's time
+    within its episode, so n-step returns (cfg.nstep) are read back along one env's
+    episode: row k + j * num_envs is that env's j-th next transition."""
 
     def __init__(
         self,
@@ -215,31 +238,58 @@ class _OnlineLoop:
         start_steps: int,
         seed: int,
         step: int,
+        capacity: int = 1_000_000,
     ) -> None:
         spec = get_domain(domain)
         self.agent, self.start_steps, self.n = agent, start_steps, num_envs
         self.envs = BatchedEnv(domain, task, num_envs).envs
         self.rng = np.random.default_rng(seed + step)
-        cap = 1_000_000
-        self.obs = np.zeros((cap, spec.obs_dim), np.float32)
-        self.next_obs = np.zeros((cap, spec.obs_dim), np.float32)
-        self.act = np.zeros((cap, spec.act_dim), np.float32)
-        self.rew = np.zeros(cap, np.float32)
+        self.obs = np.zeros((capacity, spec.obs_dim), np.float32)
+        self.next_obs = np.zeros((capacity, spec.obs_dim), np.float32)
+        self.act = np.zeros((capacity, spec.act_dim), np.float32)
+        self.rew = np.zeros(capacity, np.float32)
+        self.t = np.full(capacity, -1, np.int64)  # time within the episode
         self.size = self.pos = 0
-        self.cap = cap
+        self.cap = capacity
         self.env_steps = step * num_envs
         self.episode = 0
         self.seed = seed
         self.current = self._reset_all()
+        self.ep_t = 0
 
     def _reset_all(self) -> np.ndarray:
         self.episode += 1
+        self.ep_t = 0
         return np.stack(
             [
                 e.reset(seed=self.seed * 1_000_003 + self.episode * 100 + i)[0]
                 for i, e in enumerate(self.envs)
             ]
         )
+
+    def state(self) -> dict[str, Any]:
+        # The buffer goes into the checkpoint so that --resume keeps its data; the envs
+        # themselves restart from fresh episodes (physics is not checkpointed).
+        n = self.size
+        return {
+            "obs": torch.from_numpy(self.obs[:n]),
+            "next_obs": torch.from_numpy(self.next_obs[:n]),
+            "act": torch.from_numpy(self.act[:n]),
+            "rew": torch.from_numpy(self.rew[:n]),
+            "t": torch.from_numpy(self.t[:n]),
+            "pos": self.pos,
+            "episode": self.episode,
+        }
+
+    def load(self, state: dict[str, Any]) -> None:
+        n = len(state["rew"])
+        for name in ("obs", "next_obs", "act", "rew", "t"):
+            getattr(self, name)[:n] = state[name].numpy()
+        self.size, self.pos = n, int(state["pos"])
+        self.episode = int(state["episode"])
+        self.current = self._reset_all()
+        # A restarted episode must not chain onto rows written before the kill.
+        self.t[self.pos : self.pos + self.n * self.agent.cfg.nstep] = -1
 
     def step(self) -> dict[str, float]:
         if self.env_steps < self.start_steps:
@@ -254,21 +304,33 @@ class _OnlineLoop:
             done = done or trunc
         idx = (self.pos + np.arange(self.n)) % self.cap
         self.obs[idx], self.act[idx], self.rew[idx] = self.current, a, rew
-        self.next_obs[idx] = nxt
+        self.next_obs[idx], self.t[idx] = nxt, self.ep_t
+        self.ep_t += 1
         self.pos = int(idx[-1] + 1) % self.cap
         self.size = min(self.size + self.n, self.cap)
         self.env_steps += self.n
         self.current = self._reset_all() if done else np.stack(nxt)
         if self.env_steps < self.start_steps:
             return {}
-        k = self.rng.integers(0, self.size, self.agent.cfg.batch_size)
-        # Truncation is not termination: every transition bootstraps (discount 1).
-        return self.agent.update(
-            torch.from_numpy(self.obs[k]),
-            torch.from_numpy(self.act[k]),
-            torch.from_numpy(self.rew[k]),
-            torch.from_numpy(self.next_obs[k]),
-            torch.ones(len(k)),
+        return self.agent.update(*self.sample())
+
+    def sample(self) -> tuple[torch.Tensor, ...]:
+        """A minibatch of n-step transitions (R, s_n, gamma^(n-1)) as `offline_sampler`.
+        Truncation is not termination: every transition bootstraps."""
+        cfg, n = self.agent.cfg, self.agent.cfg.nstep
+        span = np.arange(n) * self.n
+        k = self.rng.integers(0, self.size, 2 * cfg.batch_size + 64)
+        rows = (k[:, None] + span) % self.cap
+        # Keep starts whose n transitions are one env's consecutive steps of one episode.
+        ok = (self.t[rows] == self.t[k][:, None] + np.arange(n)).all(-1)
+        rows = rows[ok][: cfg.batch_size]
+        reward = (self.rew[rows] * cfg.gamma ** np.arange(n)).sum(-1)
+        return (
+            torch.from_numpy(self.obs[rows[:, 0]]),
+            torch.from_numpy(self.act[rows[:, 0]]),
+            torch.from_numpy(reward.astype(np.float32)),
+            torch.from_numpy(self.next_obs[rows[:, -1]]),
+            torch.full((len(rows),), cfg.gamma ** (n - 1)),
         )
 
 
