@@ -145,6 +145,16 @@ def test_benchmark_killed_and_resumed_runs_every_job_once(
     assert "| erfb | reward inference |" in text and "(771.9)" in text  # paper ERFB, square
     assert (tmp_path / "report" / "trajectories_square.png").stat().st_size > 1000
     assert (tmp_path / "report" / "time_to_policy.png").is_file()
+    # The bounds section: the expert against the paper's, and the model's zero-shot return.
+    zero_shot = smoke_model_dir / "zero_shot.json"
+    zero_shot.write_text(json.dumps({"tasks": {"square": {"return_mean": 123.45}}}))
+    try:
+        text = write_report(out, tmp_path / "report").read_text()
+    finally:
+        zero_shot.unlink()
+    (row,) = [line for line in text.splitlines() if line.startswith("| square | ")]
+    expert = next(r["expert_return"] for r in rows if r["task"] == "square")
+    assert f"| {expert:.1f} | 952.9 | {100 * expert / 952.9:.1f} % | 123.5 |" in row
 
 
 def test_results_files_that_cannot_be_trusted_are_refused(tmp_path: Path) -> None:

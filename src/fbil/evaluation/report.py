@@ -142,6 +142,77 @@ def _trajectory_figures(rows: Sequence[dict[str, Any]], out_dir: Path) -> list[t
     return pictures
 
 
+def _zero_shot(rows: Sequence[dict[str, Any]]) -> dict[str, float]:
+    """The model's zero-shot returns (its `zero_shot.json`), when the model is on disk."""
+    import json
+
+    models = {r.get("model") for r in rows if r.get("model")}
+    if len(models) != 1:
+        return {}
+    path = Path(str(next(iter(models)))) / "zero_shot.json"
+    try:
+        tasks = json.loads(path.read_text())["tasks"]
+        return {t: float(v["return_mean"]) for t, v in tasks.items()}
+    except (OSError, ValueError, KeyError, TypeError):
+        return {}
+
+
+def _limits_section(
+    rows: Sequence[dict[str, Any]], methods: dict[str, Any], domain: str, setting: str
+) -> list[str]:
+    """Evidence for what bounds the scores: the experts against the paper's, and the
+    model's own zero-shot returns (the reward-aware ceiling of its policies)."""
+    tasks = sorted({t for r in methods.values() for t in r["tasks"]})
+    expert = {
+        t: next(r["tasks"][t]["expert_return"] for r in methods.values() if t in r["tasks"])
+        for t in tasks
+    }
+    paper_expert = PAPER_RETURNS.get(domain, {}).get("expert", {})
+    zero_shot = _zero_shot(rows)
+    lines = [
+        f"## What bounds these scores ({setting})",
+        "",
+        "An imitation score needs a good expert (the denominator) and a model whose "
+        "policies can do the task at all. Zero-shot: the model's policy for the z inferred "
+        "from the *true* reward over its dataset (`fbil zero-shot`, the model's "
+        "`zero_shot.json`); FB-IL methods see one demonstration instead of the reward.",
+        "",
+        "| task | expert | paper expert | expert / paper | zero-shot return | best FB-IL return |",
+        "|---|---|---|---|---|---|",
+    ]
+    good = []
+    for t in tasks:
+        pe = paper_expert.get(t, float("nan"))
+        ratio = expert[t] / pe if pe and not math.isnan(pe) else float("nan")
+        if ratio >= 0.85:
+            good.append(t)
+        best = max(
+            ((r["tasks"][t]["return_mean"], m) for m, r in methods.items() if t in r["tasks"]),
+            default=(float("nan"), "–"),
+        )
+        lines.append(
+            f"| {t} | {_fmt(expert[t])} | {_fmt(pe)} | {_fmt(100 * ratio)} % | "
+            f"{_fmt(zero_shot.get(t, float('nan')))} | {_fmt(best[0])} ({best[1]}) |"
+        )
+    if good and len(good) < len(tasks):
+        lines += [
+            "",
+            f"Mean score over the {len(good)} tasks whose expert reaches ≥ 85 % of the "
+            f"paper's ({', '.join(good)}), against the mean over all {len(tasks)}:",
+            "",
+            "| method | score, all tasks (%) | score, tasks with a ≥ 85 % expert (%) |",
+            "|---|---|---|",
+        ]
+        for m in _order(set(methods)):
+            per = methods[m]["tasks"]
+            sub = [per[t]["score"] for t in good if t in per]
+            lines.append(
+                f"| {m} | {_fmt(100 * methods[m]['score'])} | "
+                f"{_fmt(100 * float(np.mean(sub)) if sub else float('nan'))} |"
+            )
+    return [*lines, ""]
+
+
 def write_report(results: str | Path | Sequence[str | Path], out_dir: str | Path) -> Path:
     """Write OUT/report.md (+ PNGs) from one or more results files of one domain."""
     files = [results] if isinstance(results, (str, Path)) else list(results)
@@ -233,6 +304,7 @@ def write_report(results: str | Path | Sequence[str | Path], out_dir: str | Path
                 f"| {m} | {methods[m]['seconds_median']:.3f} | {PAPER_TIMES.get(m, '–')} |"
             )
         lines += ["", f"![time to policy]({fig.name})", ""]
+        lines += _limits_section(rows, methods, domain, main)
         base = {m: r["score"] for m, r in methods.items()}
         others = [s for s in summary["settings"] if s != main]
         if others:
