@@ -149,6 +149,10 @@ def train_expert(
         bar.close()
     save_state(ckpt, _checkpoint(agent, learner, step, cfg))
     returns = evaluate(agent, domain, task, eval_episodes, seed)
+    if best is None or float(returns.mean()) > float(best):  # the last evaluation counts too
+        save_state(
+            out / BEST, {"agent": agent.state(), "step": step, "return_mean": float(returns.mean())}
+        )
     best_state = load_state(out / BEST) if (out / BEST).is_file() else None
     meta = {
         "domain": domain,
