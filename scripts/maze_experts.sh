@@ -2,7 +2,9 @@
 # The eight maze experts (offline TD3 on the RND dataset relabeled per task) and their
 # demonstrations: 20 standard-start and 10 shifted-start per task.
 # Usage: scripts/maze_experts.sh [DATA_DIR] [RUNS_DIR] [DEMOS_DIR] [STEPS] [THREADS]
-# TASKS="a b" limits the tasks (e.g. to split them over two processes).
+# TASKS="a b" limits the tasks (e.g. to split them over two processes); NSTEP=n sets
+# TD3's n-step return (default 10; the dense-reward tasks fast_slow and
+# reach_bottom_left_long are better with short returns, see the README).
 # Resumable: a finished expert is skipped, an interrupted one continues from its checkpoint.
 set -euo pipefail
 DATA=${1:-datasets/point_mass_maze/rnd_uniform}
@@ -10,6 +12,7 @@ RUNS=${2:-runs/experts/point_mass_maze}
 DEMOS=${3:-artifacts/demos/point_mass_maze}
 STEPS=${4:-30000}
 THREADS=${5:-1}
+NSTEP=${NSTEP:-10}
 TASKS=${TASKS:-reach_top_left reach_top_right reach_bottom_left reach_bottom_right reach_bottom_left_long loop square fast_slow}
 mkdir -p "$RUNS" "$DEMOS"
 for task in $TASKS; do
@@ -18,7 +21,7 @@ for task in $TASKS; do
     resume=""
     [ -f "$out/checkpoint.safetensors" ] && resume="--resume"
     fbil expert point_mass_maze "$task" --mode offline --data "$DATA" --out "$out" \
-      --steps "$STEPS" --eval-every 5000 --threads "$THREADS" --set nstep=10 $resume
+      --steps "$STEPS" --eval-every 5000 --threads "$THREADS" --set nstep="$NSTEP" $resume
   fi
   [ -f "$DEMOS/$task.npz" ] || fbil demos "$out" --episodes 20 --out "$DEMOS/$task.npz" --seed 0
   [ -f "$DEMOS/${task}_shifted.npz" ] || \

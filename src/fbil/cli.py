@@ -241,6 +241,10 @@ def _cmd_zero_shot(args: argparse.Namespace) -> int:
     from fbil.fb.model import FBModel
     from fbil.fb.zero_shot import zero_shot
 
+    if args.threads:
+        import torch
+
+        torch.set_num_threads(args.threads)
     model = FBModel.load(args.model)
     dataset = load_dataset(args.data)
     tasks = dataset_tasks = get_domain_tasks(dataset.domain)
@@ -591,6 +595,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--task", default="all")
     p.add_argument("--episodes", type=int, default=20)
     p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--threads", type=int, default=None)
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=_cmd_zero_shot)
     p = sub.add_parser("imitate", help="imitation policies from demonstrations")
