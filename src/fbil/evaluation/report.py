@@ -175,7 +175,9 @@ def _limits_section(
         "An imitation score needs a good expert (the denominator) and a model whose "
         "policies can do the task at all. Zero-shot: the model's policy for the z inferred "
         "from the *true* reward over its dataset (`fbil zero-shot`, the model's "
-        "`zero_shot.json`); FB-IL methods see one demonstration instead of the reward.",
+        "`zero_shot.json`); FB-IL methods see one demonstration instead of the reward. "
+        "How the zero-shot returns move with training length, n-step targets and B's "
+        'learning rate: the README\'s section "The FB model".',
         "",
         "| task | expert | paper expert | expert / paper | zero-shot return | best FB-IL return |",
         "|---|---|---|---|---|---|",
