@@ -138,10 +138,7 @@ def train_expert(
                 )
                 fh.flush()
                 bar.set_postfix(ret=f"{returns.mean():.1f}")
-                if best is None or float(returns.mean()) > float(best):
-                    best = float(returns.mean())
-                    state = {"agent": agent.state(), "step": step, "return_mean": best}
-                    save_state(out / BEST, state)
+                best = _keep_if_best(out, agent, step, float(returns.mean()), best)
             if time.perf_counter() - last_ckpt > checkpoint_seconds:
                 save_state(ckpt, _checkpoint(agent, learner, step, cfg))
                 last_ckpt = time.perf_counter()
@@ -149,10 +146,7 @@ def train_expert(
         bar.close()
     save_state(ckpt, _checkpoint(agent, learner, step, cfg))
     returns = evaluate(agent, domain, task, eval_episodes, seed)
-    if best is None or float(returns.mean()) > float(best):  # the last evaluation counts too
-        save_state(
-            out / BEST, {"agent": agent.state(), "step": step, "return_mean": float(returns.mean())}
-        )
+    _keep_if_best(out, agent, step, float(returns.mean()), best)  # the last one counts too
     best_state = load_state(out / BEST) if (out / BEST).is_file() else None
     meta = {
         "domain": domain,
@@ -171,6 +165,14 @@ def train_expert(
     }
     atomic_write_text(out / EXPERT, json.dumps(meta, indent=2) + "\n")
     return meta
+
+
+def _keep_if_best(out: Path, agent: TD3, step: int, ret: float, best: float | None) -> float:
+    """Save the actor as BEST when `ret` beats the best evaluation so far; the new best."""
+    if best is not None and ret <= float(best):
+        return float(best)
+    save_state(out / BEST, {"agent": agent.state(), "step": step, "return_mean": ret})
+    return ret
 
 
 def _checkpoint(agent: TD3, learner: Any, step: int, cfg: TD3Config) -> dict[str, Any]:
@@ -259,7 +261,6 @@ class _OnlineLoop:
         self.episode = 0
         self.seed = seed
         self.current = self._reset_all()
-        self.ep_t = 0
 
     def _reset_all(self) -> np.ndarray:
         self.episode += 1
