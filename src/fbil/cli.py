@@ -352,6 +352,7 @@ def _cmd_expert(args: argparse.Namespace) -> int:
         start_steps=args.start_steps,
         progress=not args.json,
         command=" ".join(["fbil", *sys.argv[1:]]),
+        init=args.init,
     )
     if args.json:
         print(json.dumps(meta))
@@ -626,6 +627,12 @@ def build_parser() -> argparse.ArgumentParser:
         type=int,
         default=10_000,
         help="online: env steps of uniform random actions before learning starts",
+    )
+    p.add_argument(
+        "--init",
+        default=None,
+        metavar="EXPERT_DIR",
+        help="online: start from this expert's networks and input statistics (fine-tuning)",
     )
     p.add_argument(
         "--bc-alpha",

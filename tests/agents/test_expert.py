@@ -155,3 +155,44 @@ def test_online_resume_keeps_the_replay_buffer(tmp_path: Path) -> None:
     second = load_state(out / "checkpoint.safetensors")
     assert second["step"] == 50 and len(second["learner"]["rew"]) == 50
     torch.testing.assert_close(second["learner"]["obs"][:30], first["obs"])
+
+
+def test_online_init_starts_from_the_offline_expert(expert_dir: Path, tmp_path: Path) -> None:
+    """--init copies the expert's networks and input statistics; warm-up rows come from its
+    (noisy) actor, not from uniform random actions."""
+    from fbil.checkpoint import load_state
+
+    source, _ = load_expert(expert_dir)
+    out = tmp_path / "tuned"
+    kw = dict(eval_episodes=1, progress=False, start_steps=20, checkpoint_seconds=0.0)
+    cfg = TD3Config(exploration_noise=0.0)  # noise-free: warm-up actions are the actor's
+    train_expert(
+        "point_mass_maze", "loop", "online", out, steps=20, eval_every=20, config=cfg,
+        init=expert_dir, **kw,
+    )  # fmt: skip
+    state = load_state(out / "checkpoint.safetensors")
+    torch.testing.assert_close(state["agent"]["obs_stats"], source.obs_stats)
+    # 20 steps, all warm-up: no update ran, so the actor is still the expert's.
+    for k, v in source.actor.state_dict().items():
+        torch.testing.assert_close(state["agent"]["actor"][k], v)
+    rows = state["learner"]
+    torch.testing.assert_close(rows["act"], torch.from_numpy(source.act(rows["obs"].numpy())))
+
+
+def test_online_init_errors_are_one_line(
+    expert_dir: Path, fixture_data: Path, tmp_path: Path
+) -> None:
+    with pytest.raises(FbilError, match="use it with --mode online"):
+        train_expert(
+            "point_mass_maze", "loop", "offline", tmp_path / "a", data=fixture_data, steps=1,
+            init=expert_dir,
+        )  # fmt: skip
+    with pytest.raises(FbilError, match="no expert in"):
+        train_expert("point_mass_maze", "loop", "online", tmp_path / "b", init=tmp_path / "x")
+    with pytest.raises(FbilError, match="not cheetah"):
+        train_expert("cheetah", "run", "online", tmp_path / "c", init=expert_dir)
+    with pytest.raises(FbilError, match="pass --set hidden=256"):
+        small = TD3Config(hidden=32)
+        train_expert(
+            "point_mass_maze", "loop", "online", tmp_path / "d", config=small, init=expert_dir
+        )

@@ -69,7 +69,10 @@ def train_expert(
     start_steps: int = 10_000,
     progress: bool = True,
     command: str = "",
+    init: str | Path | None = None,
 ) -> dict[str, Any]:
+    """Train a TD3 expert; `init` (online only) starts from another expert's networks and
+    input statistics (offline-to-online fine-tuning)."""
     spec = get_domain(domain)
     get_task(domain, task)
     if mode not in ("offline", "online"):
@@ -96,6 +99,10 @@ def train_expert(
         agent.load(state["agent"])
         step = int(state["step"])
         learner_state = state.get("learner") or {}  # experts saved before 0.1 have none
+    elif init is not None:
+        if mode != "online":
+            raise FbilError("--init fine-tunes an expert online: use it with --mode online")
+        _init_from_expert(agent, init, domain)
     out.mkdir(parents=True, exist_ok=True)
 
     if mode == "offline":
@@ -105,7 +112,9 @@ def train_expert(
         sample = offline_sampler(dataset, task, cfg, agent.gen)
         learner: Any = _OfflineLoop(agent, sample)
     else:
-        learner = _OnlineLoop(agent, domain, task, num_envs, start_steps, seed, step)
+        learner = _OnlineLoop(
+            agent, domain, task, num_envs, start_steps, seed, step, warm_actor=init is not None
+        )
     if resume and learner_state:
         learner.load(learner_state)
 
@@ -165,6 +174,22 @@ def train_expert(
     }
     atomic_write_text(out / EXPERT, json.dumps(meta, indent=2) + "\n")
     return meta
+
+
+def _init_from_expert(agent: TD3, expert_dir: str | Path, domain: str) -> None:
+    """Copy networks, targets and input statistics (not optimiser moments) of the expert
+    in `expert_dir` into `agent`."""
+    source, meta = load_expert(expert_dir)
+    if meta["domain"] != domain:
+        raise FbilError(f"--init {expert_dir}: an expert of {meta['domain']}, not {domain}")
+    if source.cfg.hidden != agent.cfg.hidden:
+        raise FbilError(
+            f"--init {expert_dir}: hidden width {source.cfg.hidden} != {agent.cfg.hidden}; "
+            f"pass --set hidden={source.cfg.hidden}"
+        )
+    for name in ("actor", "critics", "actor_target", "critic_targets"):
+        getattr(agent, name).load_state_dict(getattr(source, name).state_dict())
+    agent.obs_stats = source.obs_stats.clone()
 
 
 def _keep_if_best(out: Path, agent: TD3, step: int, ret: float, best: float | None) -> float:
@@ -245,9 +270,13 @@ class _OnlineLoop:
         seed: int,
         step: int,
         capacity: int = 1_000_000,
+        warm_actor: bool = False,
     ) -> None:
         spec = get_domain(domain)
         self.agent, self.start_steps, self.n = agent, start_steps, num_envs
+        # A fine-tuned expert fills the first buffer rows with its own noisy actions: uniform
+        # random actions would never leave the maze's start room.
+        self.warm_actor = warm_actor
         self.envs = BatchedEnv(domain, task, num_envs).envs
         self.rng = np.random.default_rng(seed + step)
         self.obs = np.zeros((capacity, spec.obs_dim), np.float32)
@@ -297,7 +326,7 @@ class _OnlineLoop:
         self.t[self.pos : self.pos + self.n * self.agent.cfg.nstep] = -1
 
     def step(self) -> dict[str, float]:
-        if self.env_steps < self.start_steps:
+        if self.env_steps < self.start_steps and not self.warm_actor:
             a = self.rng.uniform(-1, 1, (self.n, self.act.shape[1])).astype(np.float32)
         else:
             a = self.agent.act(self.current, self.agent.cfg.exploration_noise)

@@ -47,6 +47,9 @@ class FBTrainConfig:
     log_every: int = 250
     checkpoint_seconds: float = 180.0
     snapshot_model: bool = True  # also save the usable model (with Cov B) at checkpoints
+    # Keep a usable model every N steps in snapshots/step_N/ (0: none), to follow the
+    # zero-shot quality along one run (`fbil zero-shot` on each).
+    snapshot_every: int = 0
     precision: Precision = "fp32"  # "bf16": networks under bf16 autocast, losses in fp32
     # n-step target (experimental; 1 = the paper's loss): M(s_t, a_t) is matched to
     # sum_{k<n} gamma^k delta(s_{t+k+1}) + gamma^n M(s_{t+n}, pi_z) along the data's episodes;
@@ -58,6 +61,8 @@ class FBTrainConfig:
             raise FbilError(f"unknown precision {self.precision!r}; valid: fp32, bf16")
         if self.nstep < 1:
             raise FbilError(f"nstep must be >= 1, got {self.nstep}")
+        if self.snapshot_every < 0:
+            raise FbilError(f"snapshot_every must be >= 0 (0: none), got {self.snapshot_every}")
 
 
 PRESETS = ("paper", "cpu", "smoke")

@@ -293,6 +293,10 @@ class FBTrainer:
                     )
                     bar.update(self.step - bar.n)
                     last_log, steps_at_log = now, self.step
+                every = self.cfg.snapshot_every
+                if every and self.step % every == 0:
+                    snap = out / "snapshots" / f"step_{self.step:07d}"
+                    self._save_model(snap, manifest, wall_before + now - started)
                 if now - last_ckpt >= self.cfg.checkpoint_seconds:
                     fh.flush()
                     save_state(ckpt, self.state())
