@@ -34,6 +34,9 @@ def test_every_inference_verb_returns_z_of_norm_sqrt_d(b_norm: str) -> None:
         model.sample_z(7),
     ):
         torch.testing.assert_close(z.norm(dim=-1), torch.full(z.shape[:-1], math.sqrt(12)))
+    # One z for many states broadcasts, in `forward` as in `act`.
+    z = model.sample_z(1)[0]
+    torch.testing.assert_close(model.forward(obs, z), model.forward(obs, z.expand(32, -1)))
 
 
 def test_cov_b_is_the_empirical_second_moment_of_b(trained: tuple[FBModel, Path, Path]) -> None:

@@ -93,3 +93,25 @@ def test_nstep_target_samples_within_episodes_and_trains(fixture_data: Path) -> 
     for _ in range(5):
         out = trainer.update()
     assert all(torch.isfinite(v) for v in out.values())
+
+
+def test_snapshots_are_usable_models_of_their_step(fixture_data: Path, tmp_path: Path) -> None:
+    """snapshot_every=N keeps snapshots/step_N/, each a loadable model of that step."""
+    import dataclasses
+
+    from fbil.data import load_dataset
+    from fbil.fb.config import preset
+    from fbil.fb.model import FBModel
+    from fbil.fb.train import FBTrainer
+
+    model_cfg, train_cfg = preset("point_mass_maze", "smoke")
+    cfg = dataclasses.replace(train_cfg, steps=30, snapshot_every=10)
+    FBTrainer(model_cfg, cfg, load_dataset(fixture_data)).fit(tmp_path, progress=False)
+    snaps = sorted(p.name for p in (tmp_path / "snapshots").iterdir())
+    assert snaps == ["step_0000010", "step_0000020", "step_0000030"]
+    first, last = (FBModel.load(tmp_path / "snapshots" / s) for s in (snaps[0], snaps[-1]))
+    assert first.metadata["steps"] == 10 and last.metadata["steps"] == 30
+    final = FBModel.load(tmp_path)
+    obs = torch.randn(5, 4)
+    torch.testing.assert_close(last.backward(obs), final.backward(obs), rtol=0, atol=0)
+    assert not torch.equal(first.backward(obs), final.backward(obs))

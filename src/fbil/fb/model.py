@@ -183,6 +183,8 @@ class FBModel(nn.Module):
         """F(s, a, z); with no action, F(s, mu(s, z), z). `heads`: mean or min of the two
         heads (N, d), the first head (N, d), or both (2, N, d)."""
         obs, z = _as_tensor(obs), self.project_z(z)
+        if z.ndim == 1:  # one z for every state, as in `act`
+            z = z.expand(obs.shape[0], -1)
         act = self.actor(obs, z) if action is None else _as_tensor(action)
         f = self.forward_net(obs, z, act)
         if heads == "both":
