@@ -30,3 +30,28 @@ def test_dataset_rewards_equal_online_rewards_and_are_cached(tmp_path: Path) -> 
     again = load_dataset(tmp_path)
     again.physics = None  # type: ignore[method-assign]  # would fail if called
     np.testing.assert_array_equal(again.reward("loop"), data.reward("loop"))
+
+
+def test_doorway_crossings_count_room_changes_in_the_raw_files(tmp_path: Path) -> None:
+    """Real maze rollouts pushed through two doorways, counted again from the episode
+    files: a crossing is a step whose quadrant (signs of x and y) changes."""
+    from fbil.data.coverage import doorway_crossings
+
+    # Next to the left doorway pushing down, next to the top doorway pushing right.
+    starts = np.array([[-0.24, 0.03, 0.0, 0.0], [-0.03, 0.24, 0.0, 0.0]])
+    push = np.array([[0.0, -1.0], [1.0, 0.0]], np.float32)
+    ep = BatchedEnv("point_mass_maze", "loop", 2).rollout(
+        lambda obs, step: push, [0, 1], steps=60, start_states=starts
+    )
+    for i in range(2):
+        arrays = episode_arrays(ep.observation[i], ep.action[i], ep.reward[i], ep.physics[i])
+        write_episode(tmp_path, i, arrays)
+    expected = 0
+    for f in sorted((tmp_path / "buffer").glob("*.npz")):
+        xy = np.load(f)["observation"][:, :2]
+        quadrant = (xy[:, 0] > 0).astype(int) + 2 * (xy[:, 1] < 0).astype(int)
+        expected += int((quadrant[1:] != quadrant[:-1]).sum())
+    got = doorway_crossings(load_dataset(tmp_path))
+    assert expected == 2 and got["transitions"] == expected
+    assert got["pairs"] == {"top_left->bottom_left": 1, "top_left->top_right": 1}
+    assert got["per_episode"] == 1.0

@@ -1,7 +1,9 @@
 """How much of the environment a dataset covers.
 
 Maze: the share of the free cells of a 20 x 20 grid over the arena that the data visits
-(a cell is free when the mass's centre can reach the cell's centre), overall and per room.
+(a cell is free when the mass's centre can reach the cell's centre), overall and per room,
+and the doorway crossings: a model learns how rooms connect only from transitions that
+change room, and full cell coverage can come with very few of them.
 Locomotion: ranges and spread of the observations, and histograms of the physical
 quantities the tasks reward (torso height, forward velocity, angular momentum, ...).
 """
@@ -61,6 +63,27 @@ def maze_coverage(xy: np.ndarray) -> dict[str, Any]:
         "grid_fraction": float(visited.sum() / free.sum()),
         "rooms_visited": [name for name, frac in per_room.items() if frac > 0],
         "room_fraction": per_room,
+    }
+
+
+def doorway_crossings(dataset: Dataset) -> dict[str, Any]:
+    """Transitions whose state and next state lie in different rooms, per room pair."""
+    j = dataset.next_index
+    before = maze.room_of(dataset.observation[j - 1, :2])
+    after = maze.room_of(dataset.observation[j, :2])
+    moved = before != after
+    pairs = np.zeros((4, 4), dtype=np.int64)
+    np.add.at(pairs, (before[moved], after[moved]), 1)
+    return {
+        "transitions": int(moved.sum()),
+        "per_episode": float(moved.sum() / max(dataset.num_episodes, 1)),
+        "share": float(moved.mean()) if len(moved) else 0.0,
+        "pairs": {
+            f"{maze.ROOMS[a]}->{maze.ROOMS[b]}": int(pairs[a, b])
+            for a in range(4)
+            for b in range(4)
+            if a != b and pairs[a, b]
+        },
     }
 
 
@@ -132,6 +155,7 @@ def dataset_info(dataset: Dataset) -> dict[str, Any]:
     }
     if dataset.domain == "point_mass_maze":
         info["coverage"] = maze_coverage(obs[:, :2])
+        info["coverage"]["doorway_crossings"] = doorway_crossings(dataset)
     else:
         quantities = locomotion_quantities(dataset)
         info["coverage"] = {
