@@ -115,3 +115,69 @@ def test_snapshots_are_usable_models_of_their_step(fixture_data: Path, tmp_path:
     obs = torch.randn(5, 4)
     torch.testing.assert_close(last.backward(obs), final.backward(obs), rtol=0, atol=0)
     assert not torch.equal(first.backward(obs), final.backward(obs))
+
+
+def _smoke_trainer(fixture_data: Path, **train: object):  # type: ignore[no-untyped-def]
+    import dataclasses
+
+    from fbil.data import load_dataset
+    from fbil.fb.config import preset
+    from fbil.fb.train import FBTrainer
+
+    model_cfg, train_cfg = preset("point_mass_maze", "smoke")
+    return FBTrainer(model_cfg, dataclasses.replace(train_cfg, **train), load_dataset(fixture_data))
+
+
+def test_min_and_mean_targets_agree_exactly_when_the_heads_agree(fixture_data: Path) -> None:
+    """target_heads picks how the two target heads combine: equal heads, equal updates;
+    different heads, different updates (so the switch is wired into the loss)."""
+
+    def one_update(heads: str, same_heads: bool) -> torch.Tensor:
+        trainer = _smoke_trainer(fixture_data, target_heads=heads)
+        if same_heads:
+            with torch.no_grad():
+                for w in [*trainer.f_target.heads.weights, *trainer.f_target.heads.biases]:
+                    w[1].copy_(w[0])
+        trainer.update()
+        return torch.cat([p.flatten() for p in trainer.model.forward_net.parameters()])
+
+    torch.testing.assert_close(one_update("min", True), one_update("mean", True))
+    assert not torch.equal(one_update("min", False), one_update("mean", False))
+
+
+def test_q_loss_is_the_td_error_of_f_z_with_the_implicit_reward(fixture_data: Path) -> None:
+    """The logged q_loss equals the formula recomputed from the same batch (1-step)."""
+    trainer = _smoke_trainer(fixture_data, q_loss_coef=0.5, precision="fp32")
+    seen: dict[str, torch.Tensor] = {}
+    m = trainer.model
+    calls = {"f": 0}
+    f_forward, b_forward = m.forward_net.forward, m.backward_net.forward
+
+    def spy_f(obs, z, action):  # type: ignore[no-untyped-def]
+        out = f_forward(obs, z, action)
+        if calls["f"] == 0:  # the first call is F(s, a, z) of the FB loss
+            seen.update(f=out.detach(), z=z.detach())
+        calls["f"] += 1
+        return out
+
+    def spy_b(obs):  # type: ignore[no-untyped-def]
+        out = b_forward(obs)
+        seen.setdefault("b", out.detach())
+        return out
+
+    t_forward = trainer.f_target.forward
+
+    def spy_t(obs, z, action):  # type: ignore[no-untyped-def]
+        out = t_forward(obs, z, action)
+        seen["f_tgt"] = out.detach()
+        return out
+
+    m.forward_net.forward, m.backward_net.forward = spy_f, spy_b  # type: ignore[method-assign]
+    trainer.f_target.forward = spy_t  # type: ignore[method-assign]
+    got = trainer.update()["q_loss"]
+    b, z, f, f_tgt = seen["b"].double(), seen["z"].double(), seen["f"].double(), seen["f_tgt"]
+    reward = (b @ torch.linalg.inv(b.T @ b / len(b)) * z).sum(-1)
+    y = reward + trainer.cfg.gamma * (f_tgt.double() * z).sum(-1).min(0).values
+    expected = 0.5 * ((f * z).sum(-1) - y).pow(2).mean(-1).sum()
+    torch.testing.assert_close(got.double(), expected, rtol=1e-3, atol=1e-3)
+    assert got > 0

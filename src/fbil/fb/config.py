@@ -12,6 +12,7 @@ from fbil.errors import FbilError
 
 BNorm = Literal["l2", "batchnorm", "none"]
 Precision = Literal["fp32", "bf16"]
+TargetHeads = Literal["min", "mean"]
 
 
 @dataclass(frozen=True)
@@ -55,12 +56,26 @@ class FBTrainConfig:
     # sum_{k<n} gamma^k delta(s_{t+k+1}) + gamma^n M(s_{t+n}, pi_z) along the data's episodes;
     # the measure term uses one k per row drawn with probability ~ gamma^k (unbiased).
     nstep: int = 1
+    # Weight of an auxiliary TD loss on Q_z = F(s, a, z)^T z with the implicit reward
+    # B(s')^T Cov^-1 z (Cov from the batch), as in Meta's later FB code; 0 = the paper's
+    # loss. The FB loss spreads F's capacity over every state's measure; this term presses
+    # on the one direction the actor maximises. With nstep > 1 the reward is summed over
+    # the same n steps as the FB target.
+    q_loss_coef: float = 0.0
+    # How the two target heads combine in the FB target: "min" (the paper's pessimism) or
+    # "mean" (Meta's later FB code: pessimism only in the actor). A min of two noisy
+    # estimates is biased low; the bias compounds over the many backups a far goal needs.
+    target_heads: TargetHeads = "min"
 
     def __post_init__(self) -> None:
         if self.precision not in ("fp32", "bf16"):
             raise FbilError(f"unknown precision {self.precision!r}; valid: fp32, bf16")
+        if self.target_heads not in ("min", "mean"):
+            raise FbilError(f"unknown target_heads {self.target_heads!r}; valid: min, mean")
         if self.nstep < 1:
             raise FbilError(f"nstep must be >= 1, got {self.nstep}")
+        if self.q_loss_coef < 0:
+            raise FbilError(f"q_loss_coef must be >= 0 (0: off), got {self.q_loss_coef}")
         if self.snapshot_every < 0:
             raise FbilError(f"snapshot_every must be >= 0 (0: none), got {self.snapshot_every}")
 

@@ -4,9 +4,12 @@ One update, top to bottom (SPEC §4), for a batch of transitions (s_i, a_i, s'_i
   z_i      Gaussian on the sphere, or (half the rows) B of another next state of the batch
   M^k_ij = F^k(s_i, a_i, z_i)^T B(s'_j)                                (both heads)
   T_ij   = min_k Fbar^k(s'_i, a'_i, z_i)^T Bbar(s'_j), a'_i = mu(s'_i, z_i) + clipped noise
+           (target_heads="mean": the mean of the two heads instead of the min)
   L_FB   = sum_k 1/2 mean_{i!=j} (M^k_ij - gamma T_ij)^2 - mean_i M^k_ii
   L_orth = mean_{i!=j} (b_i^T b_j)^2 - 2 mean_i |b_i|^2,  b_i = B(s'_i)
   L_actor = -mean_i min_k F^k(s_i, a~_i, z_i)^T z_i,  a~_i = mu(s_i, z_i) + clipped noise
+  optional (q_loss_coef > 0): L_Q = sum_k 1/2 mean_i (F^k(s_i, a_i, z_i)^T z_i - y_i)^2,
+  y_i = b_i^T Cov^-1 z_i + gamma min_k Fbar^k(s'_i, a'_i, z_i)^T z_i, Cov = B^T B / n
 Off-diagonal means are taken as (sum - trace) / (n (n - 1)): no masks.
 """
 
@@ -42,6 +45,7 @@ LOG_FIELDS = (
     "ortho_loss",
     "ortho_error",
     "actor_q",
+    "q_loss",
     "steps_per_s",
     "wall_seconds",
 )
@@ -146,7 +150,10 @@ class FBTrainer:
                 next_action = (m.actor(boot_obs, z) + self._noise(action)).clamp(-1, 1)
                 f_tgt = self.f_target(boot_obs, z, next_action).float()  # (2, n, d)
                 b_tgt = self.b_target(next_obs).float()
-            target = torch.matmul(f_tgt, b_tgt.T).min(0).values  # (n, n)
+            if cfg.target_heads == "min":
+                target = torch.matmul(f_tgt, b_tgt.T).min(0).values  # (n, n)
+            else:
+                target = torch.matmul(f_tgt.mean(0), b_tgt.T)
         with amp:
             f = m.forward_net(obs, z, action).float()  # (2, n, d)
         big_m = torch.matmul(f, b_next.T)  # (2, n, n)
@@ -160,6 +167,23 @@ class FBTrainer:
         cov = b_next @ b_next.T
         ortho_loss = _offdiag_mean_sq(cov) - 2 * cov.diagonal().mean()
         loss = fb_offdiag + fb_diag + cfg.ortho_coef * ortho_loss
+        q_loss = torch.zeros((), device=self.device)
+        if cfg.q_loss_coef > 0:
+            with torch.no_grad():
+                # Implicit reward of z: B(s)^T Cov^-1 z, summed like the FB target's measure
+                # term (one k per row, weight sum_{k<n} gamma^k) when nstep > 1.
+                b_rew = b_next if steps == 1 else b_far
+                mass = 1.0 if steps == 1 else self.measure_mass
+                # In float64: a batch's Cov can be ill-conditioned (1e7 on data from one
+                # corner); Cov^-1 z is then huge and b^T (Cov^-1 z) cancels badly in fp32.
+                b64 = b_next.detach().double()
+                inv_z = torch.linalg.solve(b64.T @ b64 / n, z.T.double()).T
+                reward = (mass * (b_rew.detach().double() * inv_z).sum(-1)).float()
+                heads_q = (f_tgt * z).sum(-1)
+                next_q = heads_q.min(0).values if cfg.target_heads == "min" else heads_q.mean(0)
+                y = reward + cfg.gamma**steps * next_q
+            q_loss = 0.5 * ((f * z).sum(-1) - y).pow(2).mean(-1).sum()
+            loss = loss + cfg.q_loss_coef * q_loss
         self.opt_fb.zero_grad(set_to_none=True)
         loss.backward()
         self.opt_fb.step()
@@ -190,6 +214,7 @@ class FBTrainer:
             "ortho_loss": ortho_loss.detach(),
             "ortho_error": torch.linalg.matrix_norm(gram - torch.eye(d, device=gram.device)),
             "actor_q": q.mean().detach(),
+            "q_loss": q_loss.detach(),
         }
 
     # -- Cov B ----------------------------------------------------------------------------
