@@ -2,6 +2,11 @@
 paper's Table 5 expert row) and the manifest of a maze demos folder.
 
     python scripts/experts_table.py artifacts/demos/point_mass_maze runs/experts/point_mass_maze
+
+Each task's expert is the folder of EXPERTS named in its demos' `source`, followed back
+through `--init` to the expert it was fine-tuned from; a task whose expert folder is not
+here keeps its entry of the existing experts.json (its demos were made earlier, on another
+machine), so re-running after improving some experts leaves the others as committed.
 """
 
 from __future__ import annotations
@@ -9,6 +14,7 @@ from __future__ import annotations
 import json
 import sys
 from pathlib import Path
+from typing import Any
 
 from fbil.artifacts import write_manifest
 from fbil.checkpoint import atomic_write_text
@@ -17,47 +23,94 @@ from fbil.fb.train import git_commit
 from fbil.imitation import Demos
 
 
+def _wall(folder: Path) -> float:
+    rows = (folder / "train_log.csv").read_text().splitlines()
+    return float(rows[-1].split(",")[-1])
+
+
+def _provenance(experts: Path, task: str, source: str) -> dict[str, Any] | None:
+    """How the expert that recorded `task`'s demos was made (its folder is named in the
+    demos' `source`), following `--init` back to the expert it started from; None when
+    that folder is not here."""
+    folder = experts / source.removeprefix("TD3 expert ")
+    if not (folder / "expert.json").is_file():
+        return None
+    chain, wall = [], 0.0
+    while (folder / "expert.json").is_file():
+        meta = json.loads((folder / "expert.json").read_text())
+        chain.append(
+            {"folder": folder.name, "mode": meta["mode"], "steps": meta["steps"],
+             "command": meta.get("command", "")}
+        )  # fmt: skip
+        wall += _wall(folder)
+        words = " ".join(meta.get("commands") or [meta.get("command", "")]).split()
+        if "--init" not in words:
+            break
+        folder = Path(words[words.index("--init") + 1])
+    first = json.loads((experts / chain[0]["folder"] / "expert.json").read_text())
+    kinds = " <- ".join(f"{c['mode']} TD3 ({c['steps']} steps, {c['folder']})" for c in chain)
+    return {
+        "expert": kinds,
+        "actor_step": first.get("best_step"),
+        "chain": chain,
+        "wall_seconds": round(wall, 1),
+    }
+
+
 def main(demos_dir: str, experts_dir: str) -> None:
     paper = PAPER_RETURNS["point_mass_maze"]["expert"]
-    tasks, wall, steps = {}, 0.0, {}
+    table = Path(demos_dir) / "experts.json"
+    previous = json.loads(table.read_text())["tasks"] if table.is_file() else {}
+    tasks, made_here = {}, {}
     for task in sorted(paper):
-        demos = Demos.load(Path(demos_dir) / f"{task}.npz")
-        meta = json.loads((Path(experts_dir) / task / "expert.json").read_text())
-        log = (Path(experts_dir) / task / "train_log.csv").read_text().splitlines()
-        wall += float(log[-1].split(",")[-1])
-        steps[task] = meta["steps"]
-        m = demos.metadata
+        demos_file = Path(demos_dir) / f"{task}.npz"
+        source = Demos.load(demos_file).metadata.get("source", "")
+        made = _provenance(Path(experts_dir), task, source)
+        if made is None and task in previous:
+            tasks[task] = previous[task]
+            continue
+        if made is None:
+            raise SystemExit(f"no expert for {task} in {experts_dir} and none in {table}")
+        m = Demos.load(Path(demos_dir) / f"{task}.npz").metadata
         tasks[task] = {
             "return_mean": round(m["return_mean"], 1),
             "return_std": round(m["return_std"], 1),
-            "episodes": len(demos),
+            "episodes": len(Demos.load(Path(demos_dir) / f"{task}.npz")),
             "paper_return": paper[task],
             "ratio_to_paper": round(m["return_mean"] / paper[task], 3),
-            "actor_step": meta.get("best_step"),
+            "actor_step": made["actor_step"],
+            "expert": made["expert"],
         }
         shifted = Path(demos_dir) / f"{task}_shifted.npz"
         if shifted.is_file():
             tasks[task]["shifted_return_mean"] = round(
                 Demos.load(shifted).metadata["return_mean"], 1
             )
-    atomic_write_text(
-        Path(demos_dir) / "experts.json", json.dumps({"tasks": tasks}, indent=2) + "\n"
-    )
+        made_here[task] = made
+    atomic_write_text(table, json.dumps({"tasks": tasks}, indent=2) + "\n")
+    kept = sorted(set(tasks) - set(made_here))
+    manifest = Path(demos_dir) / "manifest.json"
+    before = json.loads(manifest.read_text()) if manifest.is_file() else {}
+    history = before.get("previous_manifests", [])
+    if kept and before:  # the kept tasks' provenance is the earlier manifest's
+        history.append(
+            {k: v for k, v in before.items() if k not in ("sha256", "previous_manifests")}
+        )
     write_manifest(
         demos_dir,
-        "scripts/maze_experts.sh datasets/point_mass_maze/rnd_uniform runs/experts/point_mass_maze "
-        "artifacts/demos/point_mass_maze 30000 1 (offline TD3, n-step 10, 30 000 updates per task; "
-        "20 standard-start demos with --seed 0, 10 shifted-start demos); then "
-        "python scripts/experts_table.py artifacts/demos/point_mass_maze "
-        "runs/experts/point_mass_maze",
+        "scripts/maze_experts.sh DATA runs/experts/point_mass_maze DEMOS 30000 1 (offline TD3, "
+        "n-step 10; with ONLINE_STEPS=N each offline expert is then fine-tuned online for N "
+        "steps and the demos come from it: 20 standard-start demos with --seed 0, 10 "
+        "shifted-start demos); then python scripts/experts_table.py "
+        "artifacts/demos/point_mass_maze runs/experts/point_mass_maze",
         0,
-        round(wall, 1),
+        round(sum(m["wall_seconds"] for m in made_here.values()), 1),
         git_commit(),
         {
-            "updates": steps,
-            "data": "datasets/point_mass_maze/rnd_uniform",
-            "note": "tasks with more than 30 000 updates were continued with `fbil expert ... "
-            "--resume --steps N --set nstep=10` and their demos recorded again",
+            "made_in_this_run": made_here,
+            "kept_from_the_previous_table": kept,
+            "previous_manifests": history,
+            "data": "datasets/point_mass_maze/rnd_uniform (408 episodes)",
         },
     )
 

@@ -155,6 +155,8 @@ def test_online_resume_keeps_the_replay_buffer(tmp_path: Path) -> None:
     second = load_state(out / "checkpoint.safetensors")
     assert second["step"] == 50 and len(second["learner"]["rew"]) == 50
     torch.testing.assert_close(second["learner"]["obs"][:30], first["obs"])
+    # expert.json keeps both invocations, so a resumed expert still shows how it started.
+    assert len(json.loads((out / "expert.json").read_text())["commands"]) == 2
 
 
 def test_online_init_starts_from_the_offline_expert(expert_dir: Path, tmp_path: Path) -> None:

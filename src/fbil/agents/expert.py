@@ -171,9 +171,19 @@ def train_expert(
         "best_return_mean": float(best_state["return_mean"]) if best_state else None,
         "fbil_version": __version__,
         "command": command,
+        # Every invocation that trained this expert (a resumed run would otherwise hide
+        # how it started, e.g. its --init).
+        "commands": [*_previous_commands(out / EXPERT), command],
     }
     atomic_write_text(out / EXPERT, json.dumps(meta, indent=2) + "\n")
     return meta
+
+
+def _previous_commands(meta_path: Path) -> list[str]:
+    if not meta_path.is_file():
+        return []
+    meta = json.loads(meta_path.read_text())
+    return list(meta.get("commands") or [meta.get("command", "")])
 
 
 def _init_from_expert(agent: TD3, expert_dir: str | Path, domain: str) -> None:
