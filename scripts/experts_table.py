@@ -28,16 +28,17 @@ def _wall(folder: Path) -> float:
     return float(rows[-1].split(",")[-1])
 
 
-def _provenance(experts: Path, task: str, source: str) -> dict[str, Any] | None:
+def _provenance(experts: Path, source: str) -> dict[str, Any] | None:
     """How the expert that recorded `task`'s demos was made (its folder is named in the
     demos' `source`), following `--init` back to the expert it started from; None when
     that folder is not here."""
     folder = experts / source.removeprefix("TD3 expert ")
     if not (folder / "expert.json").is_file():
         return None
-    chain, wall = [], 0.0
+    chain, wall, first = [], 0.0, None
     while (folder / "expert.json").is_file():
         meta = json.loads((folder / "expert.json").read_text())
+        first = first or meta
         chain.append(
             {"folder": folder.name, "mode": meta["mode"], "steps": meta["steps"],
              "command": meta.get("command", "")}
@@ -47,11 +48,10 @@ def _provenance(experts: Path, task: str, source: str) -> dict[str, Any] | None:
         if "--init" not in words:
             break
         folder = Path(words[words.index("--init") + 1])
-    first = json.loads((experts / chain[0]["folder"] / "expert.json").read_text())
     kinds = " <- ".join(f"{c['mode']} TD3 ({c['steps']} steps, {c['folder']})" for c in chain)
     return {
         "expert": kinds,
-        "actor_step": first.get("best_step"),
+        "actor_step": first.get("best_step") if first else None,
         "chain": chain,
         "wall_seconds": round(wall, 1),
     }
@@ -63,19 +63,18 @@ def main(demos_dir: str, experts_dir: str) -> None:
     previous = json.loads(table.read_text())["tasks"] if table.is_file() else {}
     tasks, made_here = {}, {}
     for task in sorted(paper):
-        demos_file = Path(demos_dir) / f"{task}.npz"
-        source = Demos.load(demos_file).metadata.get("source", "")
-        made = _provenance(Path(experts_dir), task, source)
+        demos = Demos.load(Path(demos_dir) / f"{task}.npz")
+        made = _provenance(Path(experts_dir), demos.metadata.get("source", ""))
         if made is None and task in previous:
             tasks[task] = previous[task]
             continue
         if made is None:
             raise SystemExit(f"no expert for {task} in {experts_dir} and none in {table}")
-        m = Demos.load(Path(demos_dir) / f"{task}.npz").metadata
+        m = demos.metadata
         tasks[task] = {
             "return_mean": round(m["return_mean"], 1),
             "return_std": round(m["return_std"], 1),
-            "episodes": len(Demos.load(Path(demos_dir) / f"{task}.npz")),
+            "episodes": len(demos),
             "paper_return": paper[task],
             "ratio_to_paper": round(m["return_mean"] / paper[task], 3),
             "actor_step": made["actor_step"],

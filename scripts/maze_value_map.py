@@ -33,11 +33,7 @@ def value_grid(
     with torch.no_grad():
         action = model.act(obs, z).numpy()
         value = (model.forward(obs, z) * model.project_z(z)).sum(-1).numpy()
-    clear = maze.WALL_HALF_THICKNESS + maze.MASS_RADIUS
-    arm = maze.ARM_HALF_LENGTH + clear
-    ax, ay = np.abs(xy[:, 0]), np.abs(xy[:, 1])
-    inside = ~(((ax < clear) & (ay < arm)) | ((ay < clear) & (ax < arm)))
-    value[~inside] = np.nan
+    value[maze.in_inner_wall(xy, maze.MASS_RADIUS, maze.MASS_RADIUS)] = np.nan
     return xy, value, action
 
 

@@ -20,9 +20,6 @@ from fbil.envs import compute_quantities, maze
 
 GRID = 20
 _REACH = maze.JOINT_LIMIT
-# The '+' wall grown by the mass's radius: where the centre cannot go.
-_BLOCK_HALF_THICK = maze.WALL_HALF_THICKNESS + maze.MASS_RADIUS
-_BLOCK_HALF_LEN = maze.ARM_HALF_LENGTH + maze.MASS_RADIUS
 
 
 def _cell_centres() -> np.ndarray:
@@ -34,9 +31,9 @@ def free_cells() -> np.ndarray:
     """(GRID, GRID) bool, indexed [ix, iy]: cells whose centre the mass can reach."""
     cx, cy = np.meshgrid(_cell_centres(), _cell_centres(), indexing="ij")
     in_range = (np.abs(cx) <= _REACH) & (np.abs(cy) <= _REACH)
-    vertical = (np.abs(cx) < _BLOCK_HALF_THICK) & (np.abs(cy) < _BLOCK_HALF_LEN)
-    horizontal = (np.abs(cy) < _BLOCK_HALF_THICK) & (np.abs(cx) < _BLOCK_HALF_LEN)
-    return in_range & ~vertical & ~horizontal
+    # The '+' wall grown by the mass's radius: where the centre cannot go.
+    wall = maze.in_inner_wall(np.stack([cx, cy], -1), maze.MASS_RADIUS, maze.MASS_RADIUS)
+    return in_range & ~wall
 
 
 def visit_counts(xy: np.ndarray) -> np.ndarray:

@@ -123,16 +123,21 @@ def room_of(xy: np.ndarray) -> np.ndarray:
     return right.astype(int) + 2 * bottom.astype(int)
 
 
+def in_inner_wall(xy: np.ndarray, thick_margin: float, length_margin: float) -> np.ndarray:
+    """True for each (..., 2) position within the "+" wall grown by the margins (across
+    and along its arms)."""
+    ax, ay = np.abs(xy[..., 0]), np.abs(xy[..., 1])
+    thick, arm = WALL_HALF_THICKNESS + thick_margin, ARM_HALF_LENGTH + length_margin
+    return ((ax < thick) & (ay < arm)) | ((ay < thick) & (ax < arm))
+
+
 def random_free_positions(rng: np.random.Generator, n: int) -> np.ndarray:
     """(n, 2) positions uniform over the free floor of all four rooms (walls excluded)."""
-    clear = WALL_HALF_THICKNESS + MASS_RADIUS + 0.005
+    margin = MASS_RADIUS + 0.005
     found: list[np.ndarray] = []
     while sum(len(f) for f in found) < n:
         xy = rng.uniform(-JOINT_LIMIT, JOINT_LIMIT, (2 * n, 2))
-        ax, ay = np.abs(xy[:, 0]), np.abs(xy[:, 1])
-        arm = ARM_HALF_LENGTH + clear
-        blocked = ((ax < clear) & (ay < arm)) | ((ay < clear) & (ax < arm))
-        found.append(xy[~blocked])
+        found.append(xy[~in_inner_wall(xy, margin, WALL_HALF_THICKNESS + margin)])
     return np.concatenate(found)[:n]
 
 

@@ -117,6 +117,10 @@ class FBTrainer:
         eps = torch.randn(like.shape, generator=self.gen).to(self.device) * self.cfg.stddev
         return eps.clamp(-self.cfg.stddev_clip, self.cfg.stddev_clip)
 
+    def _combine_heads(self, x: torch.Tensor) -> torch.Tensor:
+        """The two target heads (dim 0) as one target: their min, or their mean."""
+        return x.min(0).values if self.cfg.target_heads == "min" else x.mean(0)
+
     def update(self) -> dict[str, torch.Tensor]:
         cfg, m = self.cfg, self.model
         n = cfg.batch_size
@@ -150,10 +154,7 @@ class FBTrainer:
                 next_action = (m.actor(boot_obs, z) + self._noise(action)).clamp(-1, 1)
                 f_tgt = self.f_target(boot_obs, z, next_action).float()  # (2, n, d)
                 b_tgt = self.b_target(next_obs).float()
-            if cfg.target_heads == "min":
-                target = torch.matmul(f_tgt, b_tgt.T).min(0).values  # (n, n)
-            else:
-                target = torch.matmul(f_tgt.mean(0), b_tgt.T)
+            target = self._combine_heads(torch.matmul(f_tgt, b_tgt.T))  # (n, n)
         with amp:
             f = m.forward_net(obs, z, action).float()  # (2, n, d)
         big_m = torch.matmul(f, b_next.T)  # (2, n, n)
@@ -179,9 +180,7 @@ class FBTrainer:
                 b64 = b_next.detach().double()
                 inv_z = torch.linalg.solve(b64.T @ b64 / n, z.T.double()).T
                 reward = (mass * (b_rew.detach().double() * inv_z).sum(-1)).float()
-                heads_q = (f_tgt * z).sum(-1)
-                next_q = heads_q.min(0).values if cfg.target_heads == "min" else heads_q.mean(0)
-                y = reward + cfg.gamma**steps * next_q
+                y = reward + cfg.gamma**steps * self._combine_heads((f_tgt * z).sum(-1))
             q_loss = 0.5 * ((f * z).sum(-1) - y).pow(2).mean(-1).sum()
             loss = loss + cfg.q_loss_coef * q_loss
         self.opt_fb.zero_grad(set_to_none=True)
