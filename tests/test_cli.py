@@ -78,6 +78,16 @@ def test_dataset_info_reports_coverage_and_plots(tmp_path: Path) -> None:
     assert plot.read_bytes()[:4] == b"\x89PNG"
 
 
+def test_dataset_merge_from_the_command_line(tmp_path: Path) -> None:
+    out = tmp_path / "both"
+    res = fbil("dataset-merge", str(FIXTURE), str(FIXTURE), "--out", str(out), "--json")
+    assert res.returncode == 0, res.stderr
+    manifest = json.loads(res.stdout)
+    assert manifest["episodes"] == 8 and manifest["command"].startswith("fbil dataset-merge")
+    info = json.loads(fbil("dataset-info", str(out), "--json").stdout)
+    assert info["episodes"] == 8 and info["transitions"] == 8000
+
+
 def test_dataset_errors_are_one_line(tmp_path: Path) -> None:
     import shutil
 
@@ -89,6 +99,7 @@ def test_dataset_errors_are_one_line(tmp_path: Path) -> None:
         (["dataset-info", str(tmp_path / "nothing")], "no dataset at"),
         (["dataset-info", str(data)], bad.name),
         (["dataset-info", str(FIXTURE), "--domain", "walker"], "not walker"),
+        (["dataset-merge", str(FIXTURE), str(data), "--out", str(data)], "already exists"),
         (["collect", "humanoid", "--episodes", "1", "--out", str(tmp_path / "h")], "valid domains"),
     ]:
         res = fbil(*args)

@@ -164,6 +164,18 @@ def _cmd_dataset_info(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_dataset_merge(args: argparse.Namespace) -> int:
+    from fbil.data.dataset import merge_datasets
+
+    merged = merge_datasets(args.out, args.sources, command=" ".join(["fbil", *sys.argv[1:]]))
+    if args.json:
+        print(json.dumps(merged))
+    else:
+        parts = ", ".join(f"{p['episodes']} from {p['root']}" for p in merged["merged_from"])
+        print(f"{merged['episodes']} {merged['domain']} episodes in {args.out} ({parts})")
+    return 0
+
+
 def _parse_setting(item: str, current: Any, value: str) -> Any:
     """A --set value converted to the type of the setting it replaces."""
     try:
@@ -564,6 +576,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--plot", default=None, help="write a coverage figure (PNG)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=_cmd_dataset_info)
+    p = sub.add_parser("dataset-merge", help="one dataset folder from several of one domain")
+    p.add_argument("sources", nargs="+", help="dataset folders, in the order to number them")
+    p.add_argument("--out", required=True, help="new dataset folder (must not exist)")
+    p.add_argument("--json", action="store_true", help="print the manifest as JSON")
+    p.set_defaults(func=_cmd_dataset_merge)
     p = sub.add_parser("pretrain", help="pre-train an FB model on a dataset")
     p.add_argument("domain")
     p.add_argument("--data", required=True, help="dataset folder")

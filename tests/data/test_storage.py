@@ -136,3 +136,37 @@ def test_committed_exorl_fixture_loads_and_relabels(tmp_path: Path) -> None:
     np.testing.assert_array_equal(data.observation, data.physics().astype(np.float32))
     r = data.reward("reach_top_left")
     assert r.shape == (4000,) and r.dtype == np.float32 and r.max() > 0
+
+
+def test_merged_folder_holds_every_episode_in_order(tmp_path: Path) -> None:
+    from fbil.data.dataset import merge_datasets
+
+    rng = np.random.default_rng(3)
+    a = [_exorl_episode(rng, t) for t in (5, 7)]
+    b = [_exorl_episode(rng, t) for t in (4, 6, 3)]
+    src_a = _write_exorl(tmp_path / "a", a)
+    src_b = _write_exorl(tmp_path / "b", b)
+    out = tmp_path / "merged"
+    manifest = merge_datasets(out, [src_a, src_b], command="fbil dataset-merge a b")
+    data = load_dataset(out)
+    assert data.domain == "point_mass_maze" and manifest["episodes"] == 5
+    assert [p["episodes"] for p in manifest["merged_from"]] == [2, 3]
+    assert data.num_transitions == 5 + 7 + 4 + 6 + 3
+    np.testing.assert_array_equal(
+        data.observation, np.concatenate([e["observation"] for e in a + b])
+    )  # the first source's episodes, then the second's, each whole
+    assert sorted(p.name for p in out.iterdir()) == ["buffer", "manifest.json"]
+
+
+def test_merge_refuses_mixed_domains_and_an_existing_folder(tmp_path: Path) -> None:
+    from fbil.data.dataset import merge_datasets
+
+    rng = np.random.default_rng(4)
+    maze = _write_exorl(tmp_path / "a", [_exorl_episode(rng, 5)])
+    cheetah = _write_exorl(tmp_path / "b", [_exorl_episode(rng, 5, 17, 6, 18)])
+    with pytest.raises(FbilError, match="different or unknown domains"):
+        merge_datasets(tmp_path / "m", [maze, cheetah])
+    assert not (tmp_path / "m").exists()
+    (tmp_path / "m").mkdir()
+    with pytest.raises(FbilError, match="already exists"):
+        merge_datasets(tmp_path / "m", [maze, maze])

@@ -181,3 +181,30 @@ def test_q_loss_is_the_td_error_of_f_z_with_the_implicit_reward(fixture_data: Pa
     expected = 0.5 * ((f * z).sum(-1) - y).pow(2).mean(-1).sum()
     torch.testing.assert_close(got.double(), expected, rtol=1e-3, atol=1e-3)
     assert got > 0
+
+
+def test_freeze_b_step_stops_b_and_its_statistics_while_f_learns(fixture_data: Path) -> None:
+    """Before freeze_b_step B learns; from it on B's weights and batch-norm statistics stay
+    exactly as they were, F and the actor keep learning, and the model stays usable."""
+    trainer = _smoke_trainer(fixture_data, freeze_b_step=3)
+    m = trainer.model
+    assert m.config.b_norm == "batchnorm"  # so the statistics are part of what must stay
+
+    def b_state() -> list[torch.Tensor]:
+        return [t.detach().clone() for t in m.backward_net.state_dict().values()]
+
+    def flat(net: torch.nn.Module) -> torch.Tensor:
+        return torch.cat([p.detach().flatten() for p in net.parameters()])
+
+    before = b_state()
+    for _ in range(3):
+        trainer.update()
+    at_freeze, f_at_freeze, actor_at_freeze = b_state(), flat(m.forward_net), flat(m.actor)
+    assert any(not torch.equal(a, b) for a, b in zip(before, at_freeze, strict=True))
+    for _ in range(3):
+        metrics = trainer.update()
+    for a, b in zip(at_freeze, b_state(), strict=True):
+        torch.testing.assert_close(a, b, rtol=0, atol=0)
+    assert not torch.equal(f_at_freeze, flat(m.forward_net))
+    assert not torch.equal(actor_at_freeze, flat(m.actor))
+    assert all(torch.isfinite(v).all() for v in metrics.values())

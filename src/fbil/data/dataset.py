@@ -9,12 +9,22 @@ give are cached next to the data, so relabeling a dataset for another task is in
 from __future__ import annotations
 
 import hashlib
+import os
+import shutil
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
-from fbil.data.storage import EpisodeFile, list_episodes, load_episode, read_manifest
+from fbil import __version__
+from fbil.data.storage import (
+    EpisodeFile,
+    list_episodes,
+    load_episode,
+    read_manifest,
+    write_manifest,
+)
 from fbil.envs import DOMAINS, compute_quantities, get_domain, get_task, task_reward
 from fbil.envs.base import Quantities
 from fbil.errors import FbilError
@@ -189,3 +199,63 @@ def load_dataset(
         disc[row : row + n] = np.asarray(ep["discount"]).reshape(n)
         row += n
     return Dataset(root, domain, files, obs, act, disc, starts)
+
+
+def merge_datasets(
+    out: str | Path, sources: list[str | Path], command: str | None = None
+) -> dict[str, Any]:
+    """One dataset folder holding the episodes of several (e.g. RND from the standard
+    start and RND from uniform starts), renumbered in the order given. Files are
+    hard-linked where the file system allows (else copied); the folder is built under a
+    temporary name and renamed, so a failure never leaves a half-merged `out`. Every
+    source must hold the same domain; the manifest lists each source's own manifest."""
+    out = Path(out)
+    if out.exists():
+        raise FbilError(f"{out} already exists; choose a new --out or delete it")
+    if len(sources) < 2:
+        raise FbilError("merging needs at least two dataset folders")
+    parts: list[tuple[Path, list[EpisodeFile], dict[str, Any]]] = []
+    domains: list[str] = []
+    for src in sources:
+        root = Path(src)
+        files = list_episodes(root)
+        if not files:
+            raise FbilError(f"no episodes in {root}: nothing to merge")
+        manifest = read_manifest(root) or {}
+        first = load_episode(files[0].path, ("observation", "action", "physics"))
+        dims = tuple(first[k].shape[1] for k in ("observation", "action", "physics"))
+        found = manifest.get("domain") or infer_domain(*dims)
+        parts.append((root, files, manifest))
+        domains.append(str(found))
+    if len(set(domains)) != 1 or "None" in domains:
+        named = ", ".join(f"{p[0]} ({d})" for p, d in zip(parts, domains, strict=True))
+        raise FbilError(f"cannot merge datasets of different or unknown domains: {named}")
+    tmp = out.with_name(f".{out.name}.merging")
+    if tmp.exists():
+        shutil.rmtree(tmp)
+    buf = tmp / "buffer"
+    buf.mkdir(parents=True)
+    index = 0
+    listing = []
+    for root, files, manifest in parts:
+        for f in files:
+            stamp = f.path.name.split("_")[0]  # list_episodes matched <stamp>_<idx>_<len>
+            target = buf / f"{stamp}_{index}_{f.length}.npz"
+            try:
+                os.link(f.path, target)
+            except OSError:
+                shutil.copyfile(f.path, target)
+            index += 1
+        listing.append({"root": str(root), "episodes": len(files), "manifest": manifest})
+    merged = {
+        "domain": domains[0],
+        "merged_from": listing,
+        "episodes": index,
+        "fbil_version": __version__,
+        "reward": "none (reward-free; relabel with a task)",
+    }
+    if command:
+        merged["command"] = command
+    write_manifest(tmp, merged)
+    tmp.rename(out)
+    return merged

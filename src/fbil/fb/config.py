@@ -66,6 +66,12 @@ class FBTrainConfig:
     # "mean" (Meta's later FB code: pessimism only in the actor). A min of two noisy
     # estimates is biased low; the bias compounds over the many backups a far goal needs.
     target_heads: TargetHeads = "min"
+    # From this step on (0 = never), B and its batch-norm statistics stay fixed and only F
+    # and the actor learn: F's target stops moving, so the far field of the measure (slow
+    # to propagate through the few room-to-room transitions) can settle. The paper's maze
+    # lr_b of 1e-6 keeps B nearly still for most of its 10^6+ steps; this gets there in
+    # the steps a CPU affords.
+    freeze_b_step: int = 0
 
     def __post_init__(self) -> None:
         if self.precision not in ("fp32", "bf16"):
@@ -78,6 +84,8 @@ class FBTrainConfig:
             raise FbilError(f"q_loss_coef must be >= 0 (0: off), got {self.q_loss_coef}")
         if self.snapshot_every < 0:
             raise FbilError(f"snapshot_every must be >= 0 (0: none), got {self.snapshot_every}")
+        if self.freeze_b_step < 0:
+            raise FbilError(f"freeze_b_step must be >= 0 (0: never), got {self.freeze_b_step}")
 
 
 PRESETS = ("paper", "cpu", "smoke")

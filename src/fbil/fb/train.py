@@ -141,8 +141,12 @@ class FBTrainer:
         # the n x n Gram products and the losses stay in fp32 (M reaches 1e3, and the TD
         # error is a small difference of large numbers).
         amp = torch.autocast(self.device.type, torch.bfloat16, enabled=cfg.precision == "bf16")
-        with amp:
-            b_next = m.backward_net(next_obs).float()  # (n, d), with grad
+        b_frozen = 0 < cfg.freeze_b_step <= self.step
+        if b_frozen:  # eval mode: batch norm uses (and keeps) its running statistics
+            m.backward_net.eval()
+            self.b_target.eval()
+        with amp, torch.set_grad_enabled(not b_frozen):
+            b_next = m.backward_net(next_obs).float()  # (n, d), with grad unless frozen
         z = torch.randn(n, self.mcfg.z_dim, generator=self.gen).to(self.device)
         perm = torch.randperm(n, generator=self.gen).to(self.device)
         use_b = (torch.rand(n, generator=self.gen) < cfg.z_from_b_ratio).to(self.device)
@@ -162,7 +166,7 @@ class FBTrainer:
         if steps == 1:
             fb_diag = -big_m.diagonal(dim1=-2, dim2=-1).mean(-1).sum()
         else:
-            with amp:
+            with amp, torch.set_grad_enabled(not b_frozen):
                 b_far = m.backward_net(far_obs).float()
             fb_diag = -self.measure_mass * (f * b_far).sum(-1).mean(-1).sum()
         cov = b_next @ b_next.T
