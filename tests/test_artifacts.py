@@ -27,7 +27,13 @@ def test_manifest_records_and_verifies_every_file(tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize(
-    "folder", ["datasets/point_mass_maze", "models/point_mass_maze", "diagnostics/point_mass_maze"]
+    "folder",
+    [
+        "datasets/point_mass_maze",
+        "models/point_mass_maze",
+        "models/point_mass_maze_gamma997",
+        "diagnostics/point_mass_maze",
+    ],
 )
 def test_committed_artifacts_match_their_manifests(folder: str) -> None:
     root = Path(__file__).parents[1] / "artifacts" / folder
