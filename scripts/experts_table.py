@@ -29,9 +29,8 @@ def _wall(folder: Path) -> float:
 
 
 def _provenance(experts: Path, source: str) -> dict[str, Any] | None:
-    """How the expert that recorded `task`'s demos was made (its folder is named in the
-    demos' `source`), following `--init` back to the expert it started from; None when
-    that folder is not here."""
+    """How the expert named in a demo file's `source` was made, following `--init` back
+    to the expert it started from; None when its folder is not in `experts`."""
     folder = experts / source.removeprefix("TD3 expert ")
     if not (folder / "expert.json").is_file():
         return None

@@ -222,9 +222,11 @@ def merge_datasets(
         if not files:
             raise FbilError(f"no episodes in {root}: nothing to merge")
         manifest = read_manifest(root) or {}
-        first = load_episode(files[0].path, ("observation", "action", "physics"))
-        dims = tuple(first[k].shape[1] for k in ("observation", "action", "physics"))
-        found = manifest.get("domain") or infer_domain(*dims)
+        found = manifest.get("domain")
+        if found is None:  # an ExORL folder without a manifest: tell by the array widths
+            keys = ("observation", "action", "physics")
+            first = load_episode(files[0].path, keys)
+            found = infer_domain(*(first[k].shape[1] for k in keys))
         parts.append((root, files, manifest))
         domains.append(str(found))
     if len(set(domains)) != 1 or "None" in domains:
@@ -237,16 +239,20 @@ def merge_datasets(
     buf.mkdir(parents=True)
     index = 0
     listing = []
-    for root, files, manifest in parts:
-        for f in files:
-            stamp = f.path.name.split("_")[0]  # list_episodes matched <stamp>_<idx>_<len>
-            target = buf / f"{stamp}_{index}_{f.length}.npz"
-            try:
-                os.link(f.path, target)
-            except OSError:
-                shutil.copyfile(f.path, target)
-            index += 1
-        listing.append({"root": str(root), "episodes": len(files), "manifest": manifest})
+    try:
+        for root, files, manifest in parts:
+            for f in files:
+                stamp = f.path.name.split("_")[0]  # list_episodes matched <stamp>_<idx>_<len>
+                target = buf / f"{stamp}_{index}_{f.length}.npz"
+                try:
+                    os.link(f.path, target)
+                except OSError:
+                    shutil.copyfile(f.path, target)
+                index += 1
+            listing.append({"root": str(root), "episodes": len(files), "manifest": manifest})
+    except OSError as exc:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise FbilError(f"cannot write {out} ({exc}); check the disk and permissions") from None
     merged = {
         "domain": domains[0],
         "merged_from": listing,
