@@ -31,8 +31,7 @@ def test_manifest_records_and_verifies_every_file(tmp_path: Path) -> None:
     [
         "datasets/point_mass_maze",
         "models/point_mass_maze",
-        "models/point_mass_maze_gamma997",
-        "results/point_mass_maze_gamma997",
+        "results/point_mass_maze",
         "diagnostics/point_mass_maze",
     ],
 )
