@@ -208,3 +208,13 @@ def test_freeze_b_step_stops_b_and_its_statistics_while_f_learns(fixture_data: P
     assert not torch.equal(f_at_freeze, flat(m.forward_net))
     assert not torch.equal(actor_at_freeze, flat(m.actor))
     assert all(torch.isfinite(v).all() for v in metrics.values())
+
+
+def test_resume_applies_the_configs_learning_rates(fixture_data: Path, tmp_path: Path) -> None:
+    """A checkpoint's Adam state carries the old rates; resuming with new ones uses them."""
+    _smoke_trainer(fixture_data, steps=10).fit(tmp_path, progress=False)
+    resumed = _smoke_trainer(fixture_data, steps=12, lr_f=3e-3, lr_b=2e-3, lr_actor=1e-3)
+    resumed.fit(tmp_path, resume=True, progress=False)
+    assert resumed.step == 12
+    assert [g["lr"] for g in resumed.opt_fb.param_groups] == [3e-3, 2e-3]
+    assert [g["lr"] for g in resumed.opt_actor.param_groups] == [1e-3]

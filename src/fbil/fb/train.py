@@ -259,6 +259,12 @@ class FBTrainer:
         except (KeyError, RuntimeError) as exc:
             first = str(exc).strip().splitlines()[0]
             raise FbilError(f"checkpoint does not match this model ({first})") from None
+        # Adam's state dict carries the learning rates it was saved with; the config wins,
+        # so `--resume --set lr_f=...` continues with the new rate instead of ignoring it.
+        cfg = self.cfg
+        for opt, rates in ((self.opt_fb, (cfg.lr_f, cfg.lr_b)), (self.opt_actor, (cfg.lr_actor,))):
+            for group, lr in zip(opt.param_groups, rates, strict=True):
+                group["lr"] = lr
         self.gen.set_state(state["gen"])
         self.step = int(state["step"])
 
