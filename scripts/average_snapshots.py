@@ -22,7 +22,7 @@ AVERAGED = ("forward_net.", "actor.")
 
 def average(snapshots: list[Path]) -> FBModel:
     models = [FBModel.load(s) for s in snapshots]
-    if len({str(m.config) for m in models}) != 1:
+    if any(m.config != models[0].config for m in models):
         raise FbilError("the snapshots have different model configs; pass snapshots of one run")
     states = [m.state_dict() for m in models]
     mean = {}

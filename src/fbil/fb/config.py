@@ -134,8 +134,15 @@ def preset(domain: str, name: str) -> tuple[FBModelConfig, FBTrainConfig]:
         # walls; at 1e-5 with 10-step targets values cross the doorways. gamma 0.99 then
         # reaches only the start room, 0.998 ignores walls; 0.997 with B frozen from 10k
         # steps (F and the actor keep learning) and the auxiliary Q loss is the best found.
-        maze = replace(train, lr_b=1e-5, nstep=10, gamma=0.997, q_loss_coef=0.1)
-        return model, replace(maze, freeze_b_step=10_000, steps=200_000)
+        return model, replace(
+            train,
+            lr_b=1e-5,
+            nstep=10,
+            gamma=0.997,
+            q_loss_coef=0.1,
+            freeze_b_step=10_000,
+            steps=200_000,
+        )
     model = replace(model, z_dim=8, b_hidden=32, f_hidden=32, f_embed=16)
     train = replace(train, batch_size=64, lr_b=1e-4, lr_actor=1e-4, steps=200, log_every=20)
     return model, train
