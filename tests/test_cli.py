@@ -100,6 +100,7 @@ def test_dataset_errors_are_one_line(tmp_path: Path) -> None:
         (["dataset-info", str(data)], bad.name),
         (["dataset-info", str(FIXTURE), "--domain", "walker"], "not walker"),
         (["dataset-merge", str(FIXTURE), str(data), "--out", str(data)], "already exists"),
+        (["dataset-oversample", str(FIXTURE), "--out", str(tmp_path / "o")], "changes room"),
         (["collect", "humanoid", "--episodes", "1", "--out", str(tmp_path / "h")], "valid domains"),
     ]:
         res = fbil(*args)

@@ -176,6 +176,21 @@ def _cmd_dataset_merge(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_dataset_oversample(args: argparse.Namespace) -> int:
+    from fbil.data.oversample import oversample_crossings
+
+    command = " ".join(["fbil", *sys.argv[1:]])
+    made = oversample_crossings(args.src, args.out, args.window, args.copies, command=command)
+    if args.json:
+        print(json.dumps(made))
+    else:
+        print(
+            f"{made['episodes']} episodes in {args.out}: {made['merged_from'][0]['episodes']} "
+            f"from {args.src} + {args.copies} x {made['crossing_windows']} crossing windows"
+        )
+    return 0
+
+
 def _parse_setting(item: str, current: Any, value: str) -> Any:
     """A --set value converted to the type of the setting it replaces."""
     try:
@@ -581,6 +596,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True, help="new dataset folder (must not exist)")
     p.add_argument("--json", action="store_true", help="print the manifest as JSON")
     p.set_defaults(func=_cmd_dataset_merge)
+    p = sub.add_parser(
+        "dataset-oversample",
+        help="maze: a dataset with extra copies of the windows around doorway crossings",
+    )
+    p.add_argument("src", help="maze dataset folder")
+    p.add_argument("--out", required=True, help="new dataset folder (must not exist)")
+    p.add_argument("--window", type=int, default=30, help="steps kept on each side")
+    p.add_argument("--copies", type=int, default=4, help="extra copies of each window")
+    p.add_argument("--json", action="store_true", help="print the manifest as JSON")
+    p.set_defaults(func=_cmd_dataset_oversample)
     p = sub.add_parser("pretrain", help="pre-train an FB model on a dataset")
     p.add_argument("domain")
     p.add_argument("--data", required=True, help="dataset folder")
