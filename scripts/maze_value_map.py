@@ -50,16 +50,14 @@ def value_grid(
     return xy, value, action
 
 
-def implied_reward_grid(
-    model: FBModel, w: torch.Tensor, n: int
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Positions (n*n, 2), r_hat = B(s)^T w (n*n,) at rest (no arrows); NaN at walls."""
+def implied_reward_grid(model: FBModel, w: torch.Tensor, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Positions (n*n, 2) and r_hat = B(s)^T w (n*n,) at rest; NaN where walls are."""
     xy, obs, wall = rest_grid(n)
     with torch.no_grad():
         r_hat = model.backward(obs).float() @ w
     r_hat = r_hat.numpy()
     r_hat[wall] = np.nan
-    return xy, r_hat, np.zeros_like(xy)
+    return xy, r_hat
 
 
 def peak_report(task: str, xy: np.ndarray, r_hat: np.ndarray, n: int) -> str:
@@ -82,15 +80,16 @@ def main() -> None:
     p.add_argument("--quantity", choices=("value", "reward"), default="value")
     args = p.parse_args()
     model, data = FBModel.load(args.model), load_dataset(args.data)
-    b = dataset_backward(model, data)
-    cov = b.float().T @ b.float() / len(b)
+    b = dataset_backward(model, data).float()
+    cov = b.T @ b / len(b) if args.quantity == "reward" else None
     plt = _pyplot()
     fig, axes = plt.subplots(1, 4, figsize=(16, 4.2), dpi=110)
     for ax, task in zip(axes, TASKS, strict=True):
         r = torch.from_numpy(data.reward(task)).reshape(-1, 1)
-        z_raw = (r * b).mean(0).float()
-        if args.quantity == "reward":
-            xy, v, a = implied_reward_grid(model, torch.linalg.solve(cov, z_raw), args.grid)
+        z_raw = (r * b).mean(0)
+        a = None  # the actor's push, drawn on value maps only
+        if cov is not None:
+            xy, v = implied_reward_grid(model, torch.linalg.solve(cov, z_raw), args.grid)
             print(peak_report(task, xy, v, args.grid))
         else:
             xy, v, a = value_grid(model, model.project_z(z_raw), args.grid)
@@ -99,7 +98,7 @@ def main() -> None:
         im = ax.pcolormesh(
             xy[:n, 0], xy[::n, 1], v.reshape(n, n), cmap="viridis", shading="nearest", zorder=1
         )
-        if args.quantity == "value":
+        if a is not None:
             ax.quiver(xy[:, 0], xy[:, 1], a[:, 0], a[:, 1], color="white", scale=40, zorder=2)
         fig.colorbar(im, ax=ax, fraction=0.046)
         ax.set_title(task, fontsize=10)
