@@ -9,6 +9,7 @@ import sys
 import time
 from pathlib import Path
 
+import pytest
 import torch
 from safetensors.torch import load_file
 
@@ -218,3 +219,29 @@ def test_resume_applies_the_configs_learning_rates(fixture_data: Path, tmp_path:
     assert resumed.step == 12
     assert [g["lr"] for g in resumed.opt_fb.param_groups] == [3e-3, 2e-3]
     assert [g["lr"] for g in resumed.opt_actor.param_groups] == [1e-3]
+
+
+def test_resume_on_other_data_is_noted_and_kept_in_the_metadata(
+    fixture_data: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Fine-tuning = resuming on another dataset: allowed, said once, recorded in order."""
+    from fbil.fb.model import FBModel
+
+    other = tmp_path / "other"
+    shutil.copytree(fixture_data, other)
+    out = tmp_path / "run"
+    _smoke_trainer(fixture_data, steps=6).fit(out, progress=False)
+    _smoke_trainer(fixture_data, steps=8).fit(out, resume=True, progress=False)
+    assert "note: resuming" not in capsys.readouterr().err  # same data: silent
+    assert FBModel.load(out).metadata["dataset_history"] == [
+        {"dataset": str(fixture_data), "from_step": 0}
+    ]
+    _smoke_trainer(other, steps=10).fit(out, resume=True, progress=False)
+    err = capsys.readouterr().err
+    assert err.count("note: resuming at step 8") == 1 and str(fixture_data) in err
+    meta = FBModel.load(out).metadata
+    assert meta["dataset"] == str(other)
+    assert meta["dataset_history"] == [
+        {"dataset": str(fixture_data), "from_step": 0},
+        {"dataset": str(other), "from_step": 8},
+    ]

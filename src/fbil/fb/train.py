@@ -18,8 +18,10 @@ from __future__ import annotations
 import copy
 import csv
 import dataclasses
+import json
 import math
 import subprocess
+import sys
 import time
 from pathlib import Path
 from typing import Any
@@ -34,7 +36,7 @@ from fbil.csvlog import last_wall_seconds, truncate_log
 from fbil.data import Dataset
 from fbil.errors import FbilError
 from fbil.fb.config import FBModelConfig, FBTrainConfig
-from fbil.fb.model import FBModel
+from fbil.fb.model import CONFIG, FBModel
 
 CHECKPOINT, LOG = "checkpoint.safetensors", "train_log.csv"
 LOG_FIELDS = (
@@ -289,8 +291,12 @@ class FBTrainer:
                 raise FbilError(f"{ckpt}: saved with another model config; use the same preset")
             self.load(state)
             truncate_log(log, self.step, LOG_FIELDS)
+            history = self._dataset_history(out)
         elif ckpt.exists() or (out / "model.safetensors").exists():  # never overwrite
             raise FbilError(f"{out} already holds a model: pass --resume or choose another --out")
+        else:
+            history = [{"dataset": str(self.dataset.root), "from_step": 0}]
+        self.model.metadata["dataset_history"] = history
         out.mkdir(parents=True, exist_ok=True)
         wall_before = last_wall_seconds(log)
         new_log = not log.exists()
@@ -342,6 +348,32 @@ class FBTrainer:
         save_state(ckpt, self.state())
         self._save_model(out, manifest, wall_before + time.perf_counter() - started)
         return FBModel.load(out)
+
+    def _dataset_history(self, out: Path) -> list[dict[str, Any]]:
+        """The datasets the resumed run has read so far, plus this one if it changed.
+
+        Resuming on other data is how a model is fine-tuned, so it is allowed; it is said
+        once on stderr and kept in the model's metadata, so the model names every dataset
+        it was trained on, not only the last."""
+        here = str(self.dataset.root)
+        try:
+            saved = json.loads((out / CONFIG).read_text())
+        except (OSError, ValueError):  # no model saved yet beside the checkpoint
+            return [{"dataset": here, "from_step": 0}]
+        history = list(saved.get("dataset_history") or [])
+        if not history and saved.get("dataset"):  # models saved before the history existed
+            history = [{"dataset": str(saved["dataset"]), "from_step": 0}]
+        if not history:
+            return [{"dataset": here, "from_step": 0}]
+        last = history[-1]["dataset"]
+        if Path(last).resolve() != Path(here).resolve():
+            tqdm.write(
+                f"note: resuming at step {self.step} on {here}; the checkpoint was trained "
+                f"on {last} (fine-tuning on new data; both are kept in the model's metadata)",
+                file=sys.stderr,
+            )
+            history.append({"dataset": here, "from_step": self.step})
+        return history
 
     def _save_model(self, out: Path, manifest: dict[str, Any] | None, wall: float) -> None:
         """The inference model as it is now, with Cov B over the whole dataset."""
