@@ -91,13 +91,18 @@ class FBTrainer:
         self.model.to(self.device)
         self.f_target = copy.deepcopy(self.model.forward_net).requires_grad_(False)
         self.b_target = copy.deepcopy(self.model.backward_net).requires_grad_(False)
+        # fused: one kernel per step for all parameters instead of a Python loop over
+        # them; ~7 % more updates/s at the cpu maze size (benchmarks/fb_update.py).
         self.opt_fb = torch.optim.Adam(
             [
                 {"params": self.model.forward_net.parameters(), "lr": train_config.lr_f},
                 {"params": self.model.backward_net.parameters(), "lr": train_config.lr_b},
-            ]
+            ],
+            fused=True,
         )
-        self.opt_actor = torch.optim.Adam(self.model.actor.parameters(), lr=train_config.lr_actor)
+        self.opt_actor = torch.optim.Adam(
+            self.model.actor.parameters(), lr=train_config.lr_actor, fused=True
+        )
         self.gen = torch.Generator(device="cpu").manual_seed(train_config.seed)
         # The dataset as tensors, once: sampling is then pure tensor indexing.
         self.obs = torch.from_numpy(dataset.observation).to(self.device)
