@@ -276,12 +276,13 @@ def _cmd_zero_shot(args: argparse.Namespace) -> int:
     dataset = load_dataset(args.data)
     tasks = dataset_tasks = get_domain_tasks(dataset.domain)
     if args.task != "all":
-        if args.task not in dataset_tasks:
-            raise FbilError(
-                f"unknown task {args.task!r} for {dataset.domain}; valid tasks: "
-                f"{', '.join(dataset_tasks)}, all"
-            )
-        tasks = [args.task]
+        tasks = [t.strip() for t in args.task.split(",") if t.strip()]
+        for task in tasks or [args.task]:
+            if task not in dataset_tasks:
+                raise FbilError(
+                    f"unknown task {task!r} for {dataset.domain}; valid tasks: "
+                    f"{', '.join(dataset_tasks)}, all (or several, comma-separated)"
+                )
     result = zero_shot(
         model, dataset, tasks, episodes=args.episodes, seed=args.seed, progress=not args.json
     )

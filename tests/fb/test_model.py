@@ -1,5 +1,8 @@
+import json
 import math
 import shutil
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -95,35 +98,29 @@ def test_offdiagonal_mean_needs_no_mask() -> None:
     torch.testing.assert_close(_offdiag_mean_sq(x), expected)
 
 
+def _zero_shot_cli(directory: Path, data: Path, *extra: str) -> subprocess.CompletedProcess[str]:
+    cmd = [sys.executable, "-m", "fbil", "zero-shot", str(directory), "--data", str(data)]
+    return subprocess.run(
+        [*cmd, "--episodes", "2", "--json", *extra], capture_output=True, text=True, timeout=300
+    )
+
+
 def test_zero_shot_cli_reports_every_maze_task(
     trained: tuple[FBModel, Path, Path],
 ) -> None:
-    import json
-    import subprocess
-    import sys
-
     _, directory, data = trained
-    res = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "fbil",
-            "zero-shot",
-            str(directory),
-            "--data",
-            str(data),
-            "--episodes",
-            "2",
-            "--json",
-        ],
-        capture_output=True,
-        text=True,
-        timeout=300,
-    )
+    res = _zero_shot_cli(directory, data)
     assert res.returncode == 0, res.stderr
     tasks = json.loads(res.stdout)["tasks"]
     assert list(tasks) == EXPECTED["point_mass_maze"][2]
     assert all(t["episodes"] == 2 and math.isfinite(t["return_mean"]) for t in tasks.values())
+    # A comma list runs those tasks, in that order, with the same returns as `all`.
+    some = _zero_shot_cli(directory, data, "--task", "square,reach_top_left")
+    assert some.returncode == 0, some.stderr
+    assert json.loads(some.stdout)["tasks"] == {t: tasks[t] for t in ("square", "reach_top_left")}
+    bad = _zero_shot_cli(directory, data, "--task", "square,reach_middle")
+    assert bad.returncode == 2 and "unknown task 'reach_middle'" in bad.stderr
+    assert len(bad.stderr.strip().splitlines()) == 1
 
 
 def test_standardised_inputs_use_the_data_statistics_and_survive_save_load(
