@@ -123,6 +123,20 @@ def test_zero_shot_cli_reports_every_maze_task(
     assert len(bad.stderr.strip().splitlines()) == 1
 
 
+def test_zero_shot_refuses_a_dataset_of_another_domain(
+    trained: tuple[FBModel, Path, Path], tmp_path: Path
+) -> None:
+    from fbil.fb.config import preset
+
+    _, _, maze_data = trained
+    for metadata in ({"dataset_manifest": {"domain": "walker"}}, {}):  # recorded, or by size
+        FBModel(preset("walker", "smoke")[0], metadata=metadata).save(tmp_path / "walker")
+        res = _zero_shot_cli(tmp_path / "walker", maze_data)
+        assert res.returncode == 2, res.stderr
+        assert "the model is for" in res.stderr and "point_mass_maze" in res.stderr
+        assert len(res.stderr.strip().splitlines()) == 1
+
+
 def test_standardised_inputs_use_the_data_statistics_and_survive_save_load(
     fixture_data: Path, tmp_path: Path
 ) -> None:

@@ -16,6 +16,7 @@ import torch
 
 from fbil.envs.rollout import BatchedEnv, Episodes
 from fbil.errors import FbilError
+from fbil.fb.model import model_domain
 from fbil.imitation.api import imitate
 from fbil.imitation.core import ImitationPolicy, OptimiserConfig
 from fbil.imitation.demos import Demos
@@ -118,10 +119,9 @@ def demos_task(demos: Demos, model: Any) -> tuple[str, str]:
             "the demonstrations do not say their domain and task (metadata 'domain', "
             "'task'); evaluation needs the task's reward"
         )
-    meta = getattr(model, "metadata", {}) or {}
-    model_domain = meta.get("domain") or (meta.get("dataset_manifest") or {}).get("domain")
-    if model_domain and model_domain != domain:
-        raise FbilError(f"the model is for {model_domain}, the demonstrations for {domain}")
+    trained_on = model_domain(getattr(model, "metadata", None))
+    if trained_on and trained_on != domain:
+        raise FbilError(f"the model is for {trained_on}, the demonstrations for {domain}")
     return str(domain), str(task)
 
 

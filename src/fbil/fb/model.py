@@ -147,6 +147,13 @@ class Actor(nn.Module):
         return self.head(torch.cat([self.s(obs), self.sz(torch.cat([obs, z], -1))], -1))
 
 
+def model_domain(metadata: dict[str, Any] | None) -> str | None:
+    """The training data's domain as recorded in a model's metadata (None if unrecorded)."""
+    meta = metadata or {}
+    domain = meta.get("domain") or (meta.get("dataset_manifest") or {}).get("domain")
+    return str(domain) if domain else None
+
+
 class FBModel(nn.Module):
     """F, B, mu and Cov B of one environment."""
 
@@ -163,6 +170,11 @@ class FBModel(nn.Module):
     @property
     def z_dim(self) -> int:
         return self.config.z_dim
+
+    @property
+    def domain(self) -> str | None:
+        """The domain of the data the model was trained on, when its metadata says."""
+        return model_domain(self.metadata)
 
     # -- z -----------------------------------------------------------------------------
     def project_z(self, z: Tensorish) -> torch.Tensor:

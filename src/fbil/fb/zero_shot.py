@@ -11,6 +11,7 @@ from tqdm.auto import tqdm
 
 from fbil.data import Dataset
 from fbil.envs import get_domain, rollout
+from fbil.errors import FbilError
 from fbil.fb.model import FBModel
 from fbil.fb.policy import FBPolicy
 
@@ -30,7 +31,13 @@ def zero_shot(
     seed: int = 0,
     progress: bool = False,
 ) -> dict[str, Any]:
-    get_domain(dataset.domain)
+    spec = get_domain(dataset.domain)
+    if model.domain not in (None, dataset.domain) or model.config.obs_dim != spec.obs_dim:
+        trained_on = model.domain or f"observations of size {model.config.obs_dim}"
+        raise FbilError(
+            f"the model is for {trained_on}, the dataset {dataset.root} for {dataset.domain}; "
+            "pass a dataset of the model's domain"
+        )
     b = dataset_backward(model, dataset)
     out: dict[str, Any] = {"tasks": {}}
     for task in tqdm(tasks, disable=not progress, desc="zero-shot", unit="task"):
