@@ -15,6 +15,7 @@ Off-diagonal means are taken as (sum - trace) / (n (n - 1)): no masks.
 
 from __future__ import annotations
 
+import contextlib
 import copy
 import csv
 import dataclasses
@@ -296,12 +297,9 @@ class FBTrainer:
                 raise FbilError(f"{ckpt}: saved with another model config; use the same preset")
             self.load(state)
             truncate_log(log, self.step, LOG_FIELDS)
-            history = self._dataset_history(out)
         elif ckpt.exists() or (out / "model.safetensors").exists():  # never overwrite
             raise FbilError(f"{out} already holds a model: pass --resume or choose another --out")
-        else:
-            history = [{"dataset": str(self.dataset.root), "from_step": 0}]
-        self.model.metadata["dataset_history"] = history
+        self.model.metadata["dataset_history"] = self._dataset_history(out, resume)
         out.mkdir(parents=True, exist_ok=True)
         wall_before = last_wall_seconds(log)
         new_log = not log.exists()
@@ -354,17 +352,17 @@ class FBTrainer:
         self._save_model(out, manifest, wall_before + time.perf_counter() - started)
         return FBModel.load(out)
 
-    def _dataset_history(self, out: Path) -> list[dict[str, Any]]:
-        """The datasets the resumed run has read so far, plus this one if it changed.
+    def _dataset_history(self, out: Path, resume: bool) -> list[dict[str, Any]]:
+        """The datasets the run has read so far, plus this one if it changed on resume.
 
         Resuming on other data is how a model is fine-tuned, so it is allowed; it is said
         once on stderr and kept in the model's metadata, so the model names every dataset
         it was trained on, not only the last."""
         here = str(self.dataset.root)
-        try:
-            saved = json.loads((out / CONFIG).read_text())
-        except (OSError, ValueError):  # no model saved yet beside the checkpoint
-            return [{"dataset": here, "from_step": 0}]
+        saved: dict[str, Any] = {}
+        # On resume, no model may be saved beside the checkpoint yet: then start afresh.
+        with contextlib.suppress(OSError, ValueError):
+            saved = json.loads((out / CONFIG).read_text()) if resume else {}
         history = list(saved.get("dataset_history") or [])
         if not history and saved.get("dataset"):  # models saved before the history existed
             history = [{"dataset": str(saved["dataset"]), "from_step": 0}]
