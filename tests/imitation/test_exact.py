@@ -2,7 +2,9 @@
 
 In a finite MDP with an exact FB model, every loss of fbil is compared with the
 successor-measure distance it is derived from, the reward-based z with FB's reward
-formula z_r = E_rho[r(s) B(s)], and the expert's own z must minimise each loss."""
+formula z_r = E_rho[r(s) B(s)], and the expert's own z must minimise each loss. Every test
+runs on both tabular representations: B(s) = e_s (diagonal: every matrix commutes) and
+B(s) = Q e_s (dense: order, transpose and elementwise-for-matrix bugs show)."""
 
 import math
 from collections.abc import Iterator
@@ -13,7 +15,7 @@ import torch
 
 from fbil.imitation import from_arrays, imitate
 from fbil.imitation.core import DemoBatch, prepare
-from fbil.imitation.methods import bellman, matching
+from fbil.imitation.methods import bc, bellman, matching
 from fbil.imitation.methods.reward import erfb, rerfb
 from tests.imitation.tabular import TabularFB
 
@@ -27,14 +29,14 @@ def float64() -> Iterator[None]:
     torch.set_default_dtype(previous)
 
 
-@pytest.fixture
-def fb() -> TabularFB:
-    return TabularFB(n_states=6, n_actions=3, gamma=0.8, seed=0)
+@pytest.fixture(params=["diagonal", "dense"])
+def fb(request: pytest.FixtureRequest) -> TabularFB:
+    return TabularFB(n_states=6, n_actions=3, gamma=0.8, seed=0, dense=request.param == "dense")
 
 
 def expert_batch(fb: TabularFB, z_expert: torch.Tensor) -> tuple[DemoBatch, torch.Tensor]:
     """Every (s, a, s') with weight rho_e(s) pi_e(a|s) P(s'|s,a): the exact expectations a
-    demonstration estimates. G(s) is the expert's successor features, here M^e(s, .)."""
+    demonstration estimates. G(s) is the expert's successor features int B dM^e(s)."""
     s_, a_ = fb.S, fb.A
     pi_e = fb.policy(z_expert)
     m_e = fb.successor(pi_e)
@@ -47,8 +49,8 @@ def expert_batch(fb: TabularFB, z_expert: torch.Tensor) -> tuple[DemoBatch, torc
         next_obs=eye_s[[r[2] for r in rows]],
         action=eye_a[[r[1] for r in rows]],
         weight=w / w.sum(),
-        b_next=eye_s[[r[2] for r in rows]],
-        g=m_e[[r[0] for r in rows]],
+        b_next=fb.B[[r[2] for r in rows]],
+        g=fb.features(m_e)[[r[0] for r in rows]],
         traj=torch.zeros(len(rows), dtype=torch.long),
         step=torch.arange(len(rows)),
         gamma=fb.gamma,
@@ -67,11 +69,11 @@ def test_erfb_and_rerfb_are_fb_reward_inference_of_their_rewards(fb: TabularFB) 
     obs = np.eye(fb.S)[states]
     batch = prepare(fb, from_arrays([obs]), fb.gamma)
     p_e = torch.bincount(torch.tensor(states[1:]), minlength=fb.S).double() / 6  # rho_e
-    # z_r = E_rho[r(s) B(s)] with B(s) = e_s is the vector (rho_s r(s))_s.
+    # z_r = E_rho[r(s) B(s)] = sum_s rho_s r(s) B(s).
     z_er, _ = erfb(fb, batch)  # r = rho_e / rho
-    torch.testing.assert_close(z_er, fb.project_z(fb.rho * (p_e / fb.rho)))
+    torch.testing.assert_close(z_er, fb.project_z((fb.rho * (p_e / fb.rho)) @ fb.B))
     z_rer, _ = rerfb(fb, batch)  # r = rho_e / (rho + rho_e)
-    torch.testing.assert_close(z_rer, fb.project_z(fb.rho * p_e / (fb.rho + p_e)))
+    torch.testing.assert_close(z_rer, fb.project_z((fb.rho * p_e / (fb.rho + p_e)) @ fb.B))
 
 
 def test_goalfb_targets_the_state_k_steps_ahead(fb: TabularFB) -> None:
@@ -80,14 +82,14 @@ def test_goalfb_targets_the_state_k_steps_ahead(fb: TabularFB) -> None:
     assert policy.z.shape == (len(states), fb.S)
     for t in range(len(states)):
         goal = states[min(t + 3, len(states) - 1)]
-        torch.testing.assert_close(policy.z_at(t), fb.project_z(torch.eye(fb.S)[goal]))
+        torch.testing.assert_close(policy.z_at(t), fb.project_z(fb.B[goal]))
 
 
 def test_discounted_features_are_the_truncated_discounted_sums(fb: TabularFB) -> None:
     states = [1, 3, 0, 4, 4]
     batch = prepare(fb, from_arrays([np.eye(fb.S)[states]]), 0.5)
     for t in range(4):
-        expected = sum(0.5**k * torch.eye(fb.S)[states[t + k + 1]] for k in range(4 - t))
+        expected = sum(0.5**k * fb.B[states[t + k + 1]] for k in range(4 - t))
         torch.testing.assert_close(batch.g[t], expected)
 
 
@@ -103,8 +105,8 @@ def test_fmfb_loss_is_the_b_feature_distance_of_successor_measures(fb: TabularFB
     m_e = fb.successor(fb.policy(z_e))
     for z in random_zs(fb)[1:]:
         m_z = fb.successor(fb.policy(z))
-        # (13) with B(s) = e_s: |int B dM^z(s) - int B dM^e(s)|^2 = |M^z(s) - M^e(s)|^2.
-        expected = (rho_e * ((m_z - m_e) ** 2).sum(-1)).sum()
+        # (13): |int B dM^z(s) - int B dM^e(s)|^2 (with B(s) = e_s: |M^z(s) - M^e(s)|^2).
+        expected = (rho_e * (fb.features(m_z - m_e) ** 2).sum(-1)).sum()
         torch.testing.assert_close(matching.fm_loss(fb, batch, z), expected)
 
 
@@ -132,15 +134,13 @@ def test_bellman_losses_have_the_gradient_of_the_bellman_gap(fb: TabularFB, norm
         z = z0.clone().requires_grad_(True)
         m_z = fb.successor(fb.policy(z))
         gap = m_z - p_e - fb.gamma * p_e @ m_z.detach()  # (15), stop-gradient on the right
-        per_state = (gap**2).sum(-1) if norm == "B*" else l2_rho_sq(fb, gap)
+        per_state = (fb.features(gap) ** 2).sum(-1) if norm == "B*" else l2_rho_sq(fb, gap)
         (g_theory,) = torch.autograd.grad((rho_e * per_state).sum(), z)
         (g_code,) = torch.autograd.grad(code(fb, batch, fb.project_z(z)), z)
         torch.testing.assert_close(g_code, g_theory)
 
 
 def test_bc_loss_is_the_kl_to_the_expert_policy_up_to_a_constant(fb: TabularFB) -> None:
-    from fbil.imitation.methods import bc  # noqa: F401  (the loss lives in its closure)
-
     z_e = random_zs(fb)[0]
     batch, rho_e = expert_batch(fb, z_e)
     pi_e = fb.policy(z_e)
@@ -148,8 +148,7 @@ def test_bc_loss_is_the_kl_to_the_expert_policy_up_to_a_constant(fb: TabularFB) 
     for z in random_zs(fb)[1:]:
         pi_z = fb.policy(z)
         kl = (rho_e * (pi_e * (pi_e.log() - pi_z.log())).sum(-1)).sum()
-        loss = -batch.mean(fb.log_prob(batch.obs, z[None], batch.action))
-        torch.testing.assert_close(loss, entropy + kl)
+        torch.testing.assert_close(bc.bc_loss(fb, batch, z), entropy + kl)
 
 
 # -- (c) the expert's own z minimises every loss ---------------------------------------------
@@ -157,12 +156,9 @@ def test_the_experts_z_minimises_each_loss(fb: TabularFB) -> None:
     zs = random_zs(fb, 6)
     z_e = zs[0]
     batch, _ = expert_batch(fb, z_e)
-    bc = lambda z: -batch.mean(fb.log_prob(batch.obs, z[None], batch.action))  # noqa: E731
-    fm = lambda z: matching.fm_loss(fb, batch, z)  # noqa: E731
-    dm = lambda z: matching.dm_loss(fb, batch, z)  # noqa: E731
-    for loss in (bc, fm, dm):
-        assert all(loss(z_e) < loss(z) for z in zs[1:])
-    assert float(fm(z_e)) == pytest.approx(0.0, abs=1e-12)
+    for loss in (bc.bc_loss, matching.fm_loss, matching.dm_loss):
+        assert all(loss(fb, batch, z_e) < loss(fb, batch, z) for z in zs[1:])
+    assert float(matching.fm_loss(fb, batch, z_e)) == pytest.approx(0.0, abs=1e-12)
     # Bellman losses (stop-gradient): the expert's z is a stationary point.
     for code in (bellman.bbell_loss, bellman.fbloss_loss):
         z = z_e.clone().requires_grad_(True)
@@ -175,12 +171,7 @@ def test_gradient_methods_recover_the_experts_behaviour(fb: TabularFB) -> None:
     closer to the expert's than the ERFB warm start's is."""
     z_e = random_zs(fb)[0]
     pi_e = fb.policy(z_e)
-    g = torch.Generator().manual_seed(3)
-    states, actions = [0], []
-    for _ in range(3000):
-        a = int(torch.multinomial(pi_e[states[-1]], 1, generator=g))
-        actions.append(a)
-        states.append(int(torch.multinomial(fb.P[states[-1], a], 1, generator=g)))
+    states, actions = fb.rollout(z_e, 3000)
     demos = from_arrays([np.eye(fb.S)[states]], [np.eye(fb.A)[actions]])
 
     def tv(z: torch.Tensor) -> float:
