@@ -1,13 +1,15 @@
-"""FB gradient steps/s at the `cpu` and `paper` sizes, next to the machine's matmul peak.
+"""FB gradient steps/s: the default path against the plain eager fp32 update, same run.
 
-For maze and walker dimensions, times `FBTrainer.update()` (FB loss, orthonormality,
-actor, targets) on a synthetic in-memory dataset, counts its floating-point operations
-with PyTorch's FlopCounterMode, and reports the achieved GFLOP/s as a share of the fp32
-matmul peak measured in the same run (a large square matmul; the bf16 peak too, since the
-`cpu` preset runs its networks under bf16 autocast). `cpu_maze_fp32` is the same update
-in fp32, the baseline for the ratio.
+For the `cpu` maze and walker sizes, builds two trainers on a synthetic in-memory dataset:
+the default path (`fbil pretrain`'s: the preset's precision, bf16 autocast, with the
+losses compiled by torch.compile) and the baseline (eager, fp32). Both are timed in
+alternating slices of ~1 s so that load from other processes hits both alike; the
+`speedup` is their ratio. Also counts the update's floating-point operations
+(FlopCounterMode) and reports the achieved GFLOP/s as a share of the bf16 and fp32 matmul
+peaks measured in the same run. `--paper` adds the paper-size configurations (default
+path only).
 
-    python benchmarks/fb_update.py [--threads 2] [--seconds 10] [--json]
+    python benchmarks/fb_update.py [--threads 2] [--seconds 20] [--json] [--paper]
 """
 
 from __future__ import annotations
@@ -55,75 +57,96 @@ def synthetic(domain: str, episodes: int = 20, steps: int = 1000) -> Dataset:
     )
 
 
-def measure(
-    domain: str, preset_name: str, seconds: float, precision: str | None = None
-) -> dict[str, Any]:
+def interleaved_rates(steps: dict[str, Any], seconds: float, slice_s: float = 1.0) -> dict:
+    """Steps/s of each callable, timed in alternating slices of `slice_s` seconds."""
+    done = dict.fromkeys(steps, 0)
+    spent = dict.fromkeys(steps, 0.0)
+    end = time.perf_counter() + seconds
+    while time.perf_counter() < end or min(done.values()) < 3:
+        for name, step in steps.items():
+            t0 = time.perf_counter()
+            while time.perf_counter() - t0 < slice_s or done[name] == 0:
+                step()
+                done[name] += 1
+            spent[name] += time.perf_counter() - t0
+    return {name: done[name] / spent[name] for name in steps}
+
+
+def trainer(domain: str, preset_name: str, fast: bool) -> FBTrainer:
     model_cfg, train_cfg = preset(domain, preset_name)
-    if precision is not None:
-        train_cfg = dataclasses.replace(train_cfg, precision=precision)
-    trainer = FBTrainer(model_cfg, train_cfg, synthetic(domain))
-    trainer.update()  # warm-up (allocations, first-call overheads)
+    if not fast:
+        train_cfg = dataclasses.replace(train_cfg, precision="fp32")
+    tr = FBTrainer(model_cfg, train_cfg, synthetic(domain), compile="on" if fast else "off")
+    t0 = time.perf_counter()
+    for _ in range(3):  # compilation, allocations, first-call overheads
+        tr.update()
+    tr.warmup_seconds = time.perf_counter() - t0  # type: ignore[attr-defined]
+    return tr
+
+
+def gflop_per_step(tr: FBTrainer) -> float:
     with FlopCounterMode(display=False) as counter:
-        trainer.update()
-    flops = counter.get_total_flops()
-    done, t0 = 0, time.perf_counter()
-    while done < 3 or time.perf_counter() - t0 < seconds:
-        trainer.update()
-        done += 1
-    rate = done / (time.perf_counter() - t0)
+        tr.update()
+    return counter.get_total_flops() / 1e9
+
+
+def measure(domain: str, preset_name: str, seconds: float, peaks: dict[str, float]) -> dict:
+    fast, base = trainer(domain, preset_name, True), trainer(domain, preset_name, False)
+    flops = gflop_per_step(base)  # the same arithmetic on both paths
+    rates = interleaved_rates({"default": fast.update, "eager_fp32": base.update}, seconds)
     return {
-        "steps_per_s": round(rate, 2),
-        "gflop_per_step": round(flops / 1e9, 3),
-        "gflops": round(rate * flops / 1e9, 1),
-        "batch_size": train_cfg.batch_size,
-        "z_dim": model_cfg.z_dim,
-        "f_hidden": model_cfg.f_hidden,
-        "precision": train_cfg.precision,
+        "default_steps_per_s": round(rates["default"], 2),
+        "eager_fp32_steps_per_s": round(rates["eager_fp32"], 2),
+        "speedup": round(rates["default"] / rates["eager_fp32"], 2),
+        "gflop_per_step": round(flops, 3),
+        "default_gflops": round(rates["default"] * flops, 1),
+        "share_of_bf16_peak": round(rates["default"] * flops / peaks["bf16"], 3),
+        "eager_fp32_share_of_fp32_peak": round(rates["eager_fp32"] * flops / peaks["fp32"], 3),
+        "compile_seconds": round(fast.warmup_seconds, 1),  # type: ignore[attr-defined]
+        "batch_size": fast.cfg.batch_size,
+        "z_dim": fast.mcfg.z_dim,
+        "f_hidden": fast.mcfg.f_hidden,
+        "default_precision": fast.cfg.precision,
     }
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--threads", type=int, default=None)
-    parser.add_argument("--seconds", type=float, default=10.0, help="per configuration")
+    parser.add_argument("--seconds", type=float, default=20.0, help="per configuration")
+    parser.add_argument("--paper", action="store_true", help="also the paper-size configs")
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args()
     if args.threads:
         torch.set_num_threads(args.threads)
-    peak = matmul_peak(3.0)
-    peak_bf16 = matmul_peak(3.0, torch.bfloat16)
-    configs = {}
-    for name, domain, preset_name, precision in (
-        ("cpu_maze", "point_mass_maze", "cpu", None),
-        ("cpu_maze_fp32", "point_mass_maze", "cpu", "fp32"),
-        ("cpu_walker", "walker", "cpu", None),
-        ("paper_maze", "point_mass_maze", "paper", None),
-        ("paper_walker", "walker", "paper", None),
-    ):
-        budget = args.seconds if preset_name == "cpu" else args.seconds / 2
-        configs[name] = measure(domain, preset_name, budget, precision)
+    peaks = {"fp32": matmul_peak(3.0), "bf16": matmul_peak(3.0, torch.bfloat16)}
+    runs = [("cpu_maze", "point_mass_maze", "cpu"), ("cpu_walker", "walker", "cpu")]
+    if args.paper:
+        runs += [("paper_maze", "point_mass_maze", "paper"), ("paper_walker", "walker", "paper")]
+    configs = {name: measure(dom, pre, args.seconds, peaks) for name, dom, pre in runs}
     result = {
         "threads": torch.get_num_threads(),
-        "peak_gflops": round(peak, 1),
-        "peak_gflops_bf16": round(peak_bf16, 1),
+        "torch": torch.__version__,
+        "peak_gflops_fp32": round(peaks["fp32"], 1),
+        "peak_gflops_bf16": round(peaks["bf16"], 1),
         "configs": configs,
     }
     if args.json:
         print(json.dumps(result))
         return
     print(
-        f"matmul peak: fp32 {peak:.1f}, bf16 {peak_bf16:.1f} GFLOP/s "
-        f"({torch.get_num_threads()} threads)"
+        f"matmul peak: fp32 {peaks['fp32']:.1f}, bf16 {peaks['bf16']:.1f} GFLOP/s "
+        f"({result['threads']} threads)"
     )
     print(
-        f"{'config':<15}{'precision':>10}{'batch':>7}{'d':>5}{'hidden':>8}{'steps/s':>10}"
-        f"{'GFLOP/step':>12}{'GFLOP/s':>9}{'% fp32 peak':>13}"
+        f"{'config':<14}{'default st/s':>13}{'eager fp32':>11}{'speedup':>9}"
+        f"{'GFLOP/step':>12}{'GFLOP/s':>9}{'% bf16 peak':>13}{'compile s':>11}"
     )
     for name, r in configs.items():
         print(
-            f"{name:<15}{r['precision']:>10}{r['batch_size']:>7}{r['z_dim']:>5}"
-            f"{r['f_hidden']:>8}{r['steps_per_s']:>10.2f}{r['gflop_per_step']:>12.3f}"
-            f"{r['gflops']:>9.1f}{100 * r['gflops'] / peak:>12.0f}%"
+            f"{name:<14}{r['default_steps_per_s']:>13.2f}{r['eager_fp32_steps_per_s']:>11.2f}"
+            f"{r['speedup']:>8.2f}x{r['gflop_per_step']:>12.3f}{r['default_gflops']:>9.1f}"
+            f"{100 * r['share_of_bf16_peak']:>12.0f}%{r['compile_seconds']:>11.1f}"
         )
 
 

@@ -172,6 +172,19 @@ class FBModel(nn.Module):
         return self.config.z_dim
 
     @property
+    def gamma(self) -> float:
+        """The discount the model was trained with: its successor measures use it, and so
+        must imitation. Read from the saved training config; a model without one is refused
+        rather than given a default that silently mis-scales every demo's features."""
+        train = self.metadata.get("train_config") or {}
+        if "gamma" not in train:
+            raise FbilError(
+                "this FB model records no training discount (train_config.gamma); "
+                "pass gamma= explicitly or re-save it with `fbil pretrain`"
+            )
+        return float(train["gamma"])
+
+    @property
     def domain(self) -> str | None:
         """The domain of the data the model was trained on, when its metadata says."""
         return model_domain(self.metadata)

@@ -25,13 +25,14 @@ import subprocess
 import sys
 import time
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import torch
 from torch import nn
 from tqdm.auto import tqdm
 
 from fbil.checkpoint import load_state, save_state
+from fbil.compile import CompileMode, compiled, use_compile
 from fbil.config import config_from_dict
 from fbil.csvlog import last_wall_seconds, truncate_log
 from fbil.data import Dataset
@@ -75,6 +76,20 @@ def git_commit() -> str:
         return "unknown"
 
 
+class Batch(NamedTuple):
+    """One update's transitions and random draws (far_obs: s_{t+k+1}, n-step only)."""
+
+    obs: torch.Tensor
+    action: torch.Tensor
+    next_obs: torch.Tensor
+    boot_obs: torch.Tensor  # where the target bootstraps: s_{t+1}, or s_{t+n} for n-step
+    far_obs: torch.Tensor | None
+    z_gauss: torch.Tensor  # Gaussian z before projection
+    perm: torch.Tensor  # which next state's B a row takes as its z
+    use_b: torch.Tensor  # rows whose z is B of a next state
+    noise: torch.Tensor  # (2, n, act_dim): target-policy and actor smoothing noise
+
+
 class FBTrainer:
     def __init__(
         self,
@@ -82,6 +97,7 @@ class FBTrainer:
         train_config: FBTrainConfig,
         dataset: Dataset,
         device: str = "cpu",
+        compile: CompileMode = "auto",
     ) -> None:
         self.mcfg, self.cfg, self.dataset = model_config, train_config, dataset
         self.device = torch.device(device)
@@ -110,6 +126,14 @@ class FBTrainer:
         self.action = torch.from_numpy(dataset.action).to(self.device)
         self.next_index = torch.from_numpy(dataset.next_index).to(self.device)
         self.step = 0
+        self.measure_mass = 1.0
+        # The two loss functions, compiled by torch.compile (inductor) when asked: the
+        # update is bound by many small kernels at CPU sizes, which inductor fuses.
+        self._fb_losses = self.fb_losses
+        self._actor_loss = self.actor_loss
+        if use_compile(compile, train_config.steps):
+            self._fb_losses = compiled(self.fb_losses)
+            self._actor_loss = compiled(self.actor_loss)
         self.sqrt_d = math.sqrt(model_config.z_dim)
         if train_config.nstep > 1:
             k = train_config.nstep
@@ -120,113 +144,177 @@ class FBTrainer:
             self.k_probs = (w / w.sum()).float()
             self.measure_mass = float(w.sum())  # sum_{k<n} gamma^k
 
-    # -- one update ------------------------------------------------------------------------
-    def _noise(self, like: torch.Tensor) -> torch.Tensor:
-        eps = torch.randn(like.shape, generator=self.gen).to(self.device) * self.cfg.stddev
-        return eps.clamp(-self.cfg.stddev_clip, self.cfg.stddev_clip)
+    # -- one update, in named steps -----------------------------------------------------
+    def update(self) -> dict[str, torch.Tensor]:
+        """One gradient step: sample, FB (+ orthonormality, + Q) step, actor step, targets."""
+        batch = self.sample()
+        fb_metrics, z = self.update_fb(batch)
+        actor_metrics = self.update_actor(batch, z)
+        self.update_targets()
+        self.step += 1
+        return {**fb_metrics, **actor_metrics}
+
+    def sample(self) -> Batch:
+        """A batch of transitions and every random draw of the update, in a fixed order
+        from the trainer's generator (so the compiled and eager paths see the same draws)."""
+        cfg, n, gen = self.cfg, self.cfg.batch_size, self.gen
+        far_obs = None
+        if cfg.nstep == 1:
+            rows = torch.randint(0, len(self.next_index), (n,), generator=gen).to(self.device)
+        else:
+            pick = torch.randint(0, len(self.nstep_rows), (n,), generator=gen)
+            rows = self.nstep_rows[pick.to(self.device)]
+            k = torch.multinomial(self.k_probs, n, replacement=True, generator=gen)
+            far_obs = self.obs[self.next_index[rows + k.to(self.device)]]  # s_{t+k+1}
+        j = self.next_index[rows]
+        next_obs = self.obs[j]
+        boot_obs = next_obs if cfg.nstep == 1 else self.obs[self.next_index[rows + cfg.nstep - 1]]
+        z_gauss = torch.randn(n, self.mcfg.z_dim, generator=gen)
+        perm = torch.randperm(n, generator=gen)
+        use_b = torch.rand(n, generator=gen) < cfg.z_from_b_ratio
+        # Two draws (target policy, then actor), as separate calls: one call of twice the
+        # size would not give the same numbers.
+        shape = (n, self.mcfg.act_dim)
+        noise = torch.stack([torch.randn(shape, generator=gen) for _ in range(2)]) * cfg.stddev
+        to = self.device
+        return Batch(
+            self.obs[j - 1],
+            self.action[j],
+            next_obs,
+            boot_obs,
+            far_obs,
+            z_gauss.to(to),
+            perm.to(to),
+            use_b.to(to),
+            noise.clamp(-cfg.stddev_clip, cfg.stddev_clip).to(to),
+        )
 
     def _combine_heads(self, x: torch.Tensor) -> torch.Tensor:
         """The two target heads (dim 0) as one target: their min, or their mean."""
         return x.min(0).values if self.cfg.target_heads == "min" else x.mean(0)
 
-    def update(self) -> dict[str, torch.Tensor]:
-        cfg, m = self.cfg, self.model
-        n = cfg.batch_size
-        steps = cfg.nstep
-        if steps == 1:
-            rows = torch.randint(0, len(self.next_index), (n,), generator=self.gen)
-            rows = rows.to(self.device)
-        else:
-            pick = torch.randint(0, len(self.nstep_rows), (n,), generator=self.gen)
-            rows = self.nstep_rows[pick.to(self.device)]
-            k = torch.multinomial(self.k_probs, n, replacement=True, generator=self.gen)
-            far_obs = self.obs[self.next_index[rows + k.to(self.device)]]  # s_{t+k+1}
-        j = self.next_index[rows]
-        obs, action, next_obs = self.obs[j - 1], self.action[j], self.obs[j]
-        boot_obs = next_obs if steps == 1 else self.obs[self.next_index[rows + steps - 1]]
+    def b_frozen(self) -> bool:
+        return 0 < self.cfg.freeze_b_step <= self.step
 
+    def update_fb(self, batch: Batch) -> tuple[dict[str, torch.Tensor], torch.Tensor]:
+        """One Adam step of F and B on L_FB + ortho_coef L_orth (+ q_loss_coef L_Q)."""
+        frozen = self.b_frozen()
+        if frozen:  # eval mode: batch norm uses (and keeps) its running statistics
+            self.model.backward_net.eval()
+            self.b_target.eval()
+        out = self._fb_losses(batch, frozen)
+        self.opt_fb.zero_grad(set_to_none=True)
+        out["loss"].backward()
+        self.opt_fb.step()
+        z = out.pop("z")
+        del out["loss"]
+        return out, z
+
+    def update_actor(self, batch: Batch, z: torch.Tensor) -> dict[str, torch.Tensor]:
+        """One Adam step of the actor on L_actor (F receives no gradient)."""
+        # F's parameters leave the graph for this loss: F receives no gradient, and the
+        # compiled backward then computes no weight gradients for F only to drop them.
+        self.model.forward_net.requires_grad_(False)
+        try:
+            loss, q = self._actor_loss(batch.obs, z, batch.noise[1])
+            self.opt_actor.zero_grad(set_to_none=True)
+            loss.backward()
+        finally:
+            self.model.forward_net.requires_grad_(True)
+        self.opt_actor.step()
+        return {"actor_q": q}
+
+    @torch.no_grad()
+    def update_targets(self) -> None:
+        """Polyak averaging of F and B's targets (batch-norm statistics copied)."""
+        m, tau = self.model, self.cfg.tau
+        for net, tgt in ((m.forward_net, self.f_target), (m.backward_net, self.b_target)):
+            torch._foreach_lerp_(list(tgt.parameters()), list(net.parameters()), tau)
+        if self.mcfg.b_norm == "batchnorm":
+            for tb, b in zip(self.b_target.buffers(), m.backward_net.buffers(), strict=True):
+                tb.copy_(b)
+
+    # -- the losses: pure functions of a batch (what `compile` compiles) ----------------
+    def _autocast(self) -> torch.autocast:
         # bf16 autocast runs the networks' matmuls at ~2-3x the fp32 rate on AVX-512 CPUs;
         # the n x n Gram products and the losses stay in fp32 (M reaches 1e3, and the TD
         # error is a small difference of large numbers).
-        amp = torch.autocast(self.device.type, torch.bfloat16, enabled=cfg.precision == "bf16")
-        b_frozen = 0 < cfg.freeze_b_step <= self.step
-        if b_frozen:  # eval mode: batch norm uses (and keeps) its running statistics
-            m.backward_net.eval()
-            self.b_target.eval()
-        with amp, torch.set_grad_enabled(not b_frozen):
-            b_next = m.backward_net(next_obs).float()  # (n, d), with grad unless frozen
-        z = torch.randn(n, self.mcfg.z_dim, generator=self.gen).to(self.device)
-        perm = torch.randperm(n, generator=self.gen).to(self.device)
-        use_b = (torch.rand(n, generator=self.gen) < cfg.z_from_b_ratio).to(self.device)
-        z = torch.where(use_b[:, None], b_next.detach()[perm], z)
-        z = self.sqrt_d * nn.functional.normalize(z, dim=-1)
+        bf16 = self.cfg.precision == "bf16"
+        return torch.autocast(self.device.type, torch.bfloat16, enabled=bf16)
 
-        with torch.no_grad():
-            with amp:
-                next_action = (m.actor(boot_obs, z) + self._noise(action)).clamp(-1, 1)
-                f_tgt = self.f_target(boot_obs, z, next_action).float()  # (2, n, d)
-                b_tgt = self.b_target(next_obs).float()
-            target = self._combine_heads(torch.matmul(f_tgt, b_tgt.T))  # (n, n)
+    def fb_losses(self, batch: Batch, frozen: bool) -> dict[str, torch.Tensor]:
+        """L_FB, L_orth, L_Q and their total `loss`, with the z of each row (`z`)."""
+        cfg, m, amp = self.cfg, self.model, self._autocast()
+        with amp, torch.set_grad_enabled(not frozen):
+            b_next = m.backward_net(batch.next_obs).float()  # (n, d)
+        z = torch.where(batch.use_b[:, None], b_next.detach()[batch.perm], batch.z_gauss)
+        z = self.sqrt_d * nn.functional.normalize(z, dim=-1)
+        with torch.no_grad(), amp:
+            next_action = (m.actor(batch.boot_obs, z) + batch.noise[0]).clamp(-1, 1)
+            f_tgt = self.f_target(batch.boot_obs, z, next_action).float()  # (2, n, d)
+            b_tgt = self.b_target(batch.next_obs).float()
         with amp:
-            f = m.forward_net(obs, z, action).float()  # (2, n, d)
+            f = m.forward_net(batch.obs, z, batch.action).float()  # (2, n, d)
+        target = self._combine_heads(torch.matmul(f_tgt, b_tgt.T)).detach()  # (n, n)
         big_m = torch.matmul(f, b_next.T)  # (2, n, n)
-        fb_offdiag = 0.5 * _offdiag_mean_sq(big_m - cfg.gamma**steps * target).sum()
-        if steps == 1:
+        discount = cfg.gamma**cfg.nstep
+        fb_offdiag = 0.5 * _offdiag_mean_sq(big_m - discount * target).sum()
+        b_far = b_next
+        if batch.far_obs is None:
             fb_diag = -big_m.diagonal(dim1=-2, dim2=-1).mean(-1).sum()
         else:
-            with amp, torch.set_grad_enabled(not b_frozen):
-                b_far = m.backward_net(far_obs).float()
+            with amp, torch.set_grad_enabled(not frozen):
+                b_far = m.backward_net(batch.far_obs).float()
             fb_diag = -self.measure_mass * (f * b_far).sum(-1).mean(-1).sum()
         cov = b_next @ b_next.T
         ortho_loss = _offdiag_mean_sq(cov) - 2 * cov.diagonal().mean()
-        loss = fb_offdiag + fb_diag + cfg.ortho_coef * ortho_loss
-        q_loss = torch.zeros((), device=self.device)
+        q_loss = torch.zeros((), device=f.device)
         if cfg.q_loss_coef > 0:
-            with torch.no_grad():
-                # Implicit reward of z: B(s)^T Cov^-1 z, summed like the FB target's measure
-                # term (one k per row, weight sum_{k<n} gamma^k) when nstep > 1.
-                b_rew = b_next if steps == 1 else b_far
-                mass = 1.0 if steps == 1 else self.measure_mass
-                # In float64: a batch's Cov can be ill-conditioned (1e7 on data from one
-                # corner); Cov^-1 z is then huge and b^T (Cov^-1 z) cancels badly in fp32.
-                b64 = b_next.detach().double()
-                inv_z = torch.linalg.solve(b64.T @ b64 / n, z.T.double()).T
-                reward = (mass * (b_rew.detach().double() * inv_z).sum(-1)).float()
-                y = reward + cfg.gamma**steps * self._combine_heads((f_tgt * z).sum(-1))
-            q_loss = 0.5 * ((f * z).sum(-1) - y).pow(2).mean(-1).sum()
-            loss = loss + cfg.q_loss_coef * q_loss
-        self.opt_fb.zero_grad(set_to_none=True)
-        loss.backward()
-        self.opt_fb.step()
-
-        with amp:
-            pi_action = (m.actor(obs, z) + self._noise(action)).clamp(-1, 1)
-            f_pi = m.forward_net(obs, z, pi_action).float()
-        q = (f_pi * z).sum(-1).min(0).values
-        actor_loss = -q.mean()
-        self.opt_actor.zero_grad(set_to_none=True)
-        actor_params = list(m.actor.parameters())
-        actor_loss.backward(inputs=actor_params)  # F receives no gradient from the actor
-        self.opt_actor.step()
-
-        with torch.no_grad():
-            for net, tgt in ((m.forward_net, self.f_target), (m.backward_net, self.b_target)):
-                torch._foreach_lerp_(list(tgt.parameters()), list(net.parameters()), cfg.tau)
-            if self.mcfg.b_norm == "batchnorm":
-                for tb, b in zip(self.b_target.buffers(), m.backward_net.buffers(), strict=True):
-                    tb.copy_(b)
-        self.step += 1
-        d = b_next.shape[1]
+            q_loss = self._q_loss(f, f_tgt.detach(), b_next.detach(), b_far.detach(), z)
+        n, d = b_next.shape
         gram = (b_next.T @ b_next).detach() / n
+        eye = torch.eye(d, device=gram.device)
         return {
+            "loss": fb_offdiag + fb_diag + cfg.ortho_coef * ortho_loss + cfg.q_loss_coef * q_loss,
+            "z": z.detach(),
             "fb_loss": (fb_offdiag + fb_diag).detach(),
             "fb_diag": fb_diag.detach(),
             "fb_offdiag": fb_offdiag.detach(),
             "ortho_loss": ortho_loss.detach(),
-            "ortho_error": torch.linalg.matrix_norm(gram - torch.eye(d, device=gram.device)),
-            "actor_q": q.mean().detach(),
+            "ortho_error": torch.linalg.matrix_norm(gram - eye),
             "q_loss": q_loss.detach(),
         }
+
+    def _q_loss(
+        self,
+        f: torch.Tensor,
+        f_tgt: torch.Tensor,
+        b_next: torch.Tensor,
+        b_far: torch.Tensor,
+        z: torch.Tensor,
+    ) -> torch.Tensor:
+        """L_Q: the TD error of F^T z with the implicit reward B(s)^T Cov^-1 z, summed like
+        the FB target's measure term (one k per row, weight sum_{k<n} gamma^k) for n-step."""
+        cfg, n = self.cfg, f.shape[1]
+        mass = 1.0 if cfg.nstep == 1 else self.measure_mass
+        # In float64: a batch's Cov can be ill-conditioned (1e7 on data from one corner);
+        # Cov^-1 z is then huge and b^T (Cov^-1 z) cancels badly in fp32.
+        b64 = b_next.double()
+        inv_z = torch.linalg.solve(b64.T @ b64 / n, z.T.double()).T
+        reward = (mass * (b_far.double() * inv_z).sum(-1)).float()
+        y = reward + cfg.gamma**cfg.nstep * self._combine_heads((f_tgt * z).sum(-1))
+        return 0.5 * ((f * z).sum(-1) - y).pow(2).mean(-1).sum()
+
+    def actor_loss(
+        self, obs: torch.Tensor, z: torch.Tensor, noise: torch.Tensor
+    ) -> tuple[torch.Tensor, torch.Tensor]:
+        """L_actor = -mean min_k F^k(s, mu(s, z) + noise, z)^T z, and that mean Q."""
+        m = self.model
+        with self._autocast():
+            pi_action = (m.actor(obs, z) + noise).clamp(-1, 1)
+            f_pi = m.forward_net(obs, z, pi_action).float()
+        q = (f_pi * z).sum(-1).min(0).values.mean()
+        return -q, q.detach()
 
     # -- Cov B ----------------------------------------------------------------------------
     @torch.no_grad()
@@ -287,20 +375,8 @@ class FBTrainer:
         """Train to `cfg.steps`, checkpointing atomically; returns the frozen model (also
         saved in `out` with Cov B)."""
         out = Path(out)
-        ckpt, log = out / CHECKPOINT, out / LOG
-        if resume:
-            if not ckpt.is_file():
-                raise FbilError(f"--resume: no checkpoint in {out} (start without --resume)")
-            state = load_state(ckpt)
-            saved = config_from_dict(FBModelConfig, state["model_config"], "model config")
-            if saved != self.mcfg:
-                raise FbilError(f"{ckpt}: saved with another model config; use the same preset")
-            self.load(state)
-            truncate_log(log, self.step, LOG_FIELDS)
-        elif ckpt.exists() or (out / "model.safetensors").exists():  # never overwrite
-            raise FbilError(f"{out} already holds a model: pass --resume or choose another --out")
-        self.model.metadata["dataset_history"] = self._dataset_history(out, resume)
-        out.mkdir(parents=True, exist_ok=True)
+        self._open_run(out, resume)
+        log = out / LOG
         wall_before = last_wall_seconds(log)
         new_log = not log.exists()
         with open(log, "a", newline="") as fh:
@@ -313,44 +389,71 @@ class FBTrainer:
                 disable=not progress,
                 desc="pretrain",
                 unit="step",
+                mininterval=1.0 if sys.stderr.isatty() else 60.0,  # sparse in log files
             )
-            started = last_ckpt = last_log = time.perf_counter()
-            steps_at_log = self.step
-            while self.step < self.cfg.steps:
-                metrics = self.update()
-                now = time.perf_counter()
-                if self.step % self.cfg.log_every == 0 or self.step == self.cfg.steps:
-                    rate = (self.step - steps_at_log) / max(now - last_log, 1e-9)
-                    row = {k: round(float(v), 6) for k, v in metrics.items()}
-                    row.update(
-                        step=self.step,
-                        steps_per_s=round(rate, 2),
-                        wall_seconds=round(wall_before + now - started, 1),
-                    )
-                    writer.writerow(row)
-                    fh.flush()
-                    bar.set_postfix(
-                        fb=f"{row['fb_loss']:.3g}",
-                        orth=f"{row['ortho_error']:.2f}",
-                        q=f"{row['actor_q']:.3g}",
-                    )
-                    bar.update(self.step - bar.n)
-                    last_log, steps_at_log = now, self.step
-                every = self.cfg.snapshot_every
-                if every and self.step % every == 0:
-                    snap = out / "snapshots" / f"step_{self.step:07d}"
-                    self._save_model(snap, manifest, wall_before + now - started)
-                if now - last_ckpt >= self.cfg.checkpoint_seconds:
-                    fh.flush()
-                    save_state(ckpt, self.state())
-                    if self.cfg.snapshot_model:
-                        self._save_model(out, manifest, wall_before + now - started)
-                    last_ckpt = time.perf_counter()
-            bar.update(self.step - bar.n)
+            wall = self._loop(out, fh, writer, bar, manifest, wall_before)
             bar.close()
-        save_state(ckpt, self.state())
-        self._save_model(out, manifest, wall_before + time.perf_counter() - started)
+        save_state(out / CHECKPOINT, self.state())
+        self._save_model(out, manifest, wall)
         return FBModel.load(out)
+
+    def _open_run(self, out: Path, resume: bool) -> None:
+        """Load the checkpoint on resume (same model config), or refuse to overwrite."""
+        ckpt = out / CHECKPOINT
+        if resume:
+            if not ckpt.is_file():
+                raise FbilError(f"--resume: no checkpoint in {out} (start without --resume)")
+            state = load_state(ckpt)
+            saved = config_from_dict(FBModelConfig, state["model_config"], "model config")
+            if saved != self.mcfg:
+                raise FbilError(f"{ckpt}: saved with another model config; use the same preset")
+            self.load(state)
+            truncate_log(out / LOG, self.step, LOG_FIELDS)
+        elif ckpt.exists() or (out / "model.safetensors").exists():  # never overwrite
+            raise FbilError(f"{out} already holds a model: pass --resume or choose another --out")
+        self.model.metadata["dataset_history"] = self._dataset_history(out, resume)
+        out.mkdir(parents=True, exist_ok=True)
+
+    def _loop(
+        self,
+        out: Path,
+        fh: Any,
+        writer: csv.DictWriter,
+        bar: Any,
+        manifest: dict[str, Any] | None,
+        wall_before: float,
+    ) -> float:
+        """Updates until cfg.steps: log rows, snapshots, timed checkpoints; the wall time."""
+        started = last_ckpt = last_log = time.perf_counter()
+        steps_at_log = self.step
+        while self.step < self.cfg.steps:
+            metrics = self.update()
+            now = time.perf_counter()
+            wall = wall_before + now - started
+            if self.step % self.cfg.log_every == 0 or self.step == self.cfg.steps:
+                rate = (self.step - steps_at_log) / max(now - last_log, 1e-9)
+                row = {k: round(float(v), 6) for k, v in metrics.items()}
+                row.update(step=self.step, steps_per_s=round(rate, 2), wall_seconds=round(wall, 1))
+                writer.writerow(row)
+                fh.flush()
+                bar.set_postfix(
+                    fb=f"{row['fb_loss']:.3g}",
+                    orth=f"{row['ortho_error']:.2f}",
+                    q=f"{row['actor_q']:.3g}",
+                )
+                bar.update(self.step - bar.n)
+                last_log, steps_at_log = now, self.step
+            every = self.cfg.snapshot_every
+            if every and self.step % every == 0:
+                self._save_model(out / "snapshots" / f"step_{self.step:07d}", manifest, wall)
+            if now - last_ckpt >= self.cfg.checkpoint_seconds:
+                fh.flush()
+                save_state(out / CHECKPOINT, self.state())
+                if self.cfg.snapshot_model:
+                    self._save_model(out, manifest, wall)
+                last_ckpt = time.perf_counter()
+        bar.update(self.step - bar.n)
+        return wall_before + time.perf_counter() - started
 
     def _dataset_history(self, out: Path, resume: bool) -> list[dict[str, Any]]:
         """The datasets the run has read so far, plus this one if it changed on resume.

@@ -5,19 +5,13 @@ from __future__ import annotations
 from typing import Any
 
 from fbil.errors import FbilError
-from fbil.imitation.core import ImitationPolicy, OptimiserConfig, Timer, prepare
+from fbil.imitation.core import FBLike, ImitationPolicy, OptimiserConfig, Timer, prepare
 from fbil.imitation.demos import Demos
 from fbil.imitation.methods import METHODS, reward
 
 
-def model_gamma(model: Any, default: float = 0.98) -> float:
-    """The discount the model was trained with (its successor measures use it)."""
-    meta = getattr(model, "metadata", {}) or {}
-    return float(meta.get("train_config", {}).get("gamma", default))
-
-
 def imitate(
-    model: Any,
+    model: FBLike,
     demos: Demos,
     method: str,
     gamma: float | None = None,
@@ -35,7 +29,7 @@ def imitate(
             f"{method} needs expert actions, and these demonstrations have none; "
             "use an action-free method (e.g. erfb, goalfb)"
         )
-    gamma = model_gamma(model) if gamma is None else gamma
+    gamma = model.gamma if gamma is None else gamma
     optimiser = optimiser or OptimiserConfig()
     with Timer() as timer:
         batch = prepare(model, demos, gamma)

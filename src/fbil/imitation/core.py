@@ -28,8 +28,13 @@ from fbil.imitation.demos import Demos
 class FBLike(Protocol):
     """What FB-IL needs of a model (FBModel, or the exact tabular model of the tests)."""
 
-    z_dim: int
     cov_b: torch.Tensor
+
+    @property
+    def z_dim(self) -> int: ...
+
+    @property
+    def gamma(self) -> float: ...  # the discount of its successor measures
 
     def project_z(self, z: Any) -> torch.Tensor: ...
 

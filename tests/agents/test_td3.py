@@ -1,0 +1,40 @@
+"""TD3's bf16 path computes the fp32 update up to bf16 rounding of the hidden layers."""
+
+import pytest
+import torch
+
+from fbil.agents.td3 import TD3, TD3Config
+from fbil.errors import FbilError
+
+
+def _batch(seed: int) -> tuple[torch.Tensor, ...]:
+    g = torch.Generator().manual_seed(seed)
+    n = 64
+    return (
+        torch.randn(n, 5, generator=g),
+        torch.rand(n, 2, generator=g) * 2 - 1,
+        torch.rand(n, generator=g) * 10,
+        torch.randn(n, 5, generator=g),
+        torch.full((n,), 0.98),
+    )
+
+
+def test_bf16_losses_and_updates_stay_within_a_percent_of_fp32() -> None:
+    fp32 = TD3(5, 2, TD3Config(hidden=64), seed=0)
+    bf16 = TD3(5, 2, TD3Config(hidden=64, precision="bf16"), seed=0)
+    for step in range(6):
+        a, b = fp32.update(*_batch(step)), bf16.update(*_batch(step))
+        assert b["critic_loss"] == pytest.approx(a["critic_loss"], rel=0.02)
+        assert b["q"] == pytest.approx(a["q"], rel=0.02, abs=1e-3)
+    obs = _batch(99)[0]
+    act_a, act_b = fp32.act(obs.numpy()), bf16.act(obs.numpy())
+    assert abs(act_a - act_b).max() < 0.02
+    # Q keeps its resolution near large values: the last layer runs in fp32.
+    big = torch.full((1, 5), 3.0)
+    q = bf16._q(bf16.critics, big, torch.zeros(1, 2))
+    assert q.dtype == torch.float32
+
+
+def test_unknown_precision_is_refused() -> None:
+    with pytest.raises(FbilError, match="valid: fp32, bf16"):
+        TD3Config(precision="fp16")  # type: ignore[arg-type]
