@@ -106,3 +106,72 @@ def test_dataset_errors_are_one_line(tmp_path: Path) -> None:
         res = fbil(*args)
         lines = res.stderr.strip().splitlines()
         assert res.returncode == 2 and len(lines) == 1 and expected in lines[0], res.stderr
+
+
+# Every command's output path, unwritable even for root (tests may run as root, for whom
+# a chmod 555 folder is writable): under an existing *file* ("file"), or in /proc, where
+# no one can make files ("proc"). The other inputs don't exist: an error naming anything
+# but the output would show that work began before the output was checked.
+UNWRITABLE = {
+    "imitate": ["imitate", "{gone}/model", "{gone}/demos.npz", "--out", "{out}"],
+    "evaluate": ["evaluate", "{gone}/model", "{gone}/demos.npz", "--out", "{out}.json"],
+    "benchmark": [
+        *("benchmark", "--domain", "point_mass_maze", "--model", "{gone}/model"),
+        *("--demos", "{gone}", "--workers", "2", "--out", "{out}.jsonl"),
+    ],
+    "demo": ["demo", "--out", "{out}"],  # with FBIL_ARTIFACTS pointing nowhere
+    "render": ["render", "point_mass_maze", "square", "--out", "{out}.png"],
+    "report": ["report", "{gone}/results.jsonl", "--out", "{out}"],
+    "collect": ["collect", "point_mass_maze", "--episodes", "1", "--out", "{out}"],
+    "pretrain": ["pretrain", "point_mass_maze", "--data", "{gone}", "--out", "{out}"],
+    "expert": ["expert", "point_mass_maze", "loop", "--data", "{gone}", "--out", "{out}"],
+    "demos": ["demos", "{gone}/expert", "--episodes", "1", "--out", "{out}.npz"],
+    "dataset-info": ["dataset-info", "{gone}", "--plot", "{out}.png"],
+    "dataset-merge": ["dataset-merge", "{gone}", "--out", "{out}"],
+    "dataset-oversample": ["dataset-oversample", "{gone}", "--out", "{out}"],
+}
+
+
+@pytest.mark.parametrize(
+    "command, where",
+    [(c, "file") for c in sorted(UNWRITABLE)]
+    + [(c, "proc") for c in ("imitate", "benchmark", "demo")],
+)
+def test_an_unwritable_output_stops_the_command_before_any_work(
+    command: str, where: str, tmp_path: Path
+) -> None:
+    import os
+
+    (tmp_path / "a_file").write_text("")
+    parent = tmp_path / "a_file" if where == "file" else Path("/proc/fbil-test")
+    out = str(parent / "out")
+    gone = str(tmp_path / "missing")
+    args = [a.format(out=out, gone=gone) for a in UNWRITABLE[command]]
+    env = {**os.environ, "FBIL_ARTIFACTS": gone}
+    res = subprocess.run(
+        [sys.executable, "-m", "fbil", *args], capture_output=True, text=True, env=env, timeout=60
+    )
+    lines = res.stderr.strip().splitlines()
+    assert res.returncode == 2 and len(lines) == 1, res.stderr
+    assert lines[0].startswith("fbil: error: cannot write") and out in lines[0], lines[0]
+    assert "choose another" in lines[0] and "missing" not in lines[0]
+    assert res.stdout == "" and sorted(p.name for p in tmp_path.iterdir()) == ["a_file"]
+
+
+def test_one_spelling_per_option_and_every_default_in_help() -> None:
+    import argparse
+
+    from fbil.cli import build_parser
+
+    (sub,) = [a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction)]
+    for name, parser in sub.choices.items():
+        actions = [a for a in parser._actions if a.option_strings]
+        options = {o for a in actions for o in a.option_strings}
+        old = {"--method", "--demos-per-run", "--repetitions", "--task"} & options
+        assert not old, f"{name}: {old}"
+        text = " ".join(parser.format_help().split())
+        for a in actions:
+            if a.default is not None and a.default is not False and a.default != argparse.SUPPRESS:
+                assert f"(default: {a.default})" in text, f"{name} {a.option_strings}"
+        if "--threads" in options:  # several fbil processes must not fight over the cores
+            assert parser.get_default("threads") == 1

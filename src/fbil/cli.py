@@ -8,7 +8,9 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
+import tempfile
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
@@ -47,14 +49,9 @@ def _cmd_tasks(args: argparse.Namespace) -> int:
 
 
 def _cmd_render(args: argparse.Namespace) -> int:
-    from fbil.envs import RandomPolicy, get_domain, get_task, rollout
-    from fbil.envs.render import (
-        ANIMATION_SUFFIXES,
-        IMAGE_SUFFIXES,
-        locomotion_frames,
-        plot_maze_trajectories,
-        save_frames,
-    )
+    from fbil.envs import RandomPolicy, get_domain, get_task
+    from fbil.envs.hooks import RenderRequest
+    from fbil.envs.render import ANIMATION_SUFFIXES, IMAGE_SUFFIXES, render_policy
 
     spec = get_domain(args.domain)
     get_task(args.domain, args.task)
@@ -67,19 +64,10 @@ def _cmd_render(args: argparse.Namespace) -> int:
             f"{', '.join(IMAGE_SUFFIXES + ANIMATION_SUFFIXES)}"
         )
     policy = RandomPolicy(spec.act_dim, seed=args.seed)
-    if spec.name == "point_mass_maze":
-        if suffix not in IMAGE_SUFFIXES:
-            raise FbilError("maze pictures are images: use .png, .pdf, .svg or .jpg")
-        seeds = list(range(args.seed, args.seed + args.episodes))
-        episodes = rollout(spec.name, args.task, policy, seeds, args.steps)
-        plot_maze_trajectories(list(episodes.observation), args.out, task=args.task)
-        returns = episodes.returns.tolist()
-    else:
-        steps = args.steps or 250
-        n_frames = args.frames if suffix in IMAGE_SUFFIXES else steps // 2 + 1
-        frames = locomotion_frames(spec.name, args.task, policy, args.seed, steps, n_frames)
-        save_frames(frames, args.out)
-        returns = []
+    request = RenderRequest(
+        args.task, policy, args.seed, args.episodes, args.steps, args.frames, Path(args.out)
+    )
+    returns = render_policy(spec.name, request)
     if args.json:
         print(json.dumps({"out": str(args.out), "returns": returns}))
     else:
@@ -127,7 +115,7 @@ def _cmd_collect(args: argparse.Namespace) -> int:
 
 def _cmd_dataset_info(args: argparse.Namespace) -> int:
     from fbil.data import load_dataset
-    from fbil.data.coverage import dataset_info, plot_coverage
+    from fbil.data.coverage import coverage_text, dataset_info, plot_coverage
 
     dataset = load_dataset(args.dir, domain=args.domain)
     info = dataset_info(dataset)
@@ -145,20 +133,8 @@ def _cmd_dataset_info(args: argparse.Namespace) -> int:
         f"state norm: mean {norm['mean']:.3f}, std {norm['std']:.3f}, "
         f"1-99% [{norm['p01']:.3f}, {norm['p99']:.3f}]"
     )
-    cov = info["coverage"]
-    if info["domain"] == "point_mass_maze":
-        print(
-            f"coverage: {100 * cov['grid_fraction']:.1f}% of {cov['free_cells']} free cells "
-            f"({cov['grid']} grid); rooms visited: {', '.join(cov['rooms_visited'])}"
-        )
-        for room, frac in cov["room_fraction"].items():
-            print(f"  {room:<13} {100 * frac:5.1f}%")
-    else:
-        for name, q in cov.items():
-            if isinstance(q, dict):
-                print(
-                    f"  {name:<22} 1-99%: [{q['p01']:8.3f}, {q['p99']:8.3f}]  max {q['max']:8.3f}"
-                )
+    for line in coverage_text(info):  # the domain's coverage summary
+        print(line)
     if args.plot:
         print(f"plot: {info['plot']}")
     return 0
@@ -231,8 +207,6 @@ def _cmd_pretrain(args: argparse.Namespace) -> int:
     from fbil.fb.config import preset
     from fbil.fb.train import FBTrainer
 
-    if args.threads:
-        torch.set_num_threads(args.threads)
     if args.device.startswith("cuda") and not torch.cuda.is_available():
         raise FbilError("--device cuda: no CUDA device here; use --device cpu")
     model_cfg, train_cfg = preset(args.domain, args.preset)
@@ -251,7 +225,7 @@ def _cmd_pretrain(args: argparse.Namespace) -> int:
     model_cfg = dataclasses.replace(model_cfg, **set_model)
     train_cfg = dataclasses.replace(train_cfg, **overrides)
     dataset = load_dataset(args.data, domain=args.domain)
-    trainer = FBTrainer(model_cfg, train_cfg, dataset, device=args.device)
+    trainer = FBTrainer(model_cfg, train_cfg, dataset, device=args.device, compile=args.compile)
     manifest = read_manifest(args.data) or {}
     model = trainer.fit(args.out, resume=args.resume, progress=not args.json, manifest=manifest)
     summary = {
@@ -268,16 +242,12 @@ def _cmd_zero_shot(args: argparse.Namespace) -> int:
     from fbil.fb.model import FBModel
     from fbil.fb.zero_shot import zero_shot
 
-    if args.threads:
-        import torch
-
-        torch.set_num_threads(args.threads)
     model = FBModel.load(args.model)
     dataset = load_dataset(args.data)
     tasks = dataset_tasks = get_domain_tasks(dataset.domain)
-    if args.task != "all":
-        tasks = [t.strip() for t in args.task.split(",") if t.strip()]
-        for task in tasks or [args.task]:
+    if args.tasks != "all":
+        tasks = [t.strip() for t in args.tasks.split(",") if t.strip()]
+        for task in tasks or [args.tasks]:
             if task not in dataset_tasks:
                 raise FbilError(
                     f"unknown task {task!r} for {dataset.domain}; valid tasks: "
@@ -296,18 +266,14 @@ def _cmd_zero_shot(args: argparse.Namespace) -> int:
 
 
 def _cmd_imitate(args: argparse.Namespace) -> int:
-    import torch
-
     from fbil.fb.model import FBModel
     from fbil.imitation import MAIN_METHODS, METHODS, Demos, imitate
 
-    if args.threads:
-        torch.set_num_threads(args.threads)
     model = FBModel.load(args.model)
     demos = Demos.load(args.demos)
-    if args.demos_per_run is not None:
-        demos = demos.select(range(min(args.demos_per_run, len(demos))))
-    methods = MAIN_METHODS if args.method == "all" else args.method.split(",")
+    if args.k is not None:
+        demos = demos.select(range(min(args.k, len(demos))))
+    methods = MAIN_METHODS if args.methods == "all" else args.methods.split(",")
     for m in methods:
         if m not in METHODS:
             raise FbilError(f"unknown method {m!r}; valid methods: {', '.join(METHODS)}, all")
@@ -351,12 +317,7 @@ def _cmd_imitate(args: argparse.Namespace) -> int:
 
 
 def _cmd_expert(args: argparse.Namespace) -> int:
-    import torch
-
     from fbil.agents.expert import train_expert
-
-    if args.threads:
-        torch.set_num_threads(args.threads)
     from fbil.agents.td3 import TD3Config
 
     if args.bc_alpha is not None and args.bc_alpha < 0:
@@ -414,42 +375,35 @@ def get_domain_tasks(domain: str) -> list[str]:
 
 
 def _cmd_evaluate(args: argparse.Namespace) -> int:
-    import torch
-
+    from fbil.checkpoint import atomic_write_text
     from fbil.evaluation.evaluate import evaluate
     from fbil.fb.model import FBModel
     from fbil.imitation.demos import Demos
 
-    if args.threads:
-        torch.set_num_threads(args.threads)
     model = FBModel.load(args.model)
     demos = Demos.load(args.demos)
     out = evaluate(
         model,
         demos,
-        args.method,
-        k=args.demos_per_run,
+        args.methods,
+        k=args.k,
         draw=args.draw,
         episodes=args.episodes,
         seed=args.seed,
     )
     methods = {m: r.as_dict() for m, r in out["results"].items()}
     methods.update({m: {"skipped": why} for m, why in out["skipped"].items()})
+    keys = ("expert_return", "task", "k", "episodes")
+    payload = json.dumps({**{key: out[key] for key in keys}, "methods": methods})
+    if args.out:
+        atomic_write_text(args.out, payload + "\n")
     if args.json:
-        print(
-            json.dumps(
-                {
-                    "expert_return": out["expert_return"],
-                    "task": out["task"],
-                    "k": out["k"],
-                    "episodes": out["episodes"],
-                    "methods": methods,
-                }
-            )
-        )
+        print(payload)
         return 0
     print(f"{out['domain']}/{out['task']}: K={out['k']} demo(s), {out['episodes']} episodes")
     _print_scores(out)
+    if args.out:
+        print(f"results: {args.out}")
     return 0
 
 
@@ -482,7 +436,7 @@ def _cmd_benchmark(args: argparse.Namespace) -> int:
         args.domain,
         tasks,
         resolve_methods(args.methods),
-        args.repetitions,
+        args.draws,
         args.k,
         args.episodes,
         seed=args.seed,
@@ -502,7 +456,9 @@ def _cmd_benchmark(args: argparse.Namespace) -> int:
         if "score" in row:
             bar.set_postfix(last=f"{row['task']}/{row['method']} {100 * row['score']:.0f}%")
 
-    new = run_benchmark(jobs, args.out, args.workers, args.backend, git_commit(), on_result)
+    new = run_benchmark(
+        jobs, args.out, args.workers, args.backend, git_commit(), on_result, args.threads
+    )
     bar.close()
     print(f"{len(new)} jobs run, {len(jobs) - len(new)} already in {args.out}")
     return 0
@@ -511,20 +467,18 @@ def _cmd_benchmark(args: argparse.Namespace) -> int:
 def _cmd_demo(args: argparse.Namespace) -> int:
     import time
 
-    import torch
-
-    from fbil.evaluation.demo import run_demo
+    from fbil.evaluation.demo import demo_tasks, run_demo
 
     started = time.perf_counter()
-    if args.threads:
-        torch.set_num_threads(args.threads)
-    out = run_demo(args.task, args.methods, args.episodes, args.out)
-    print(
-        f"fbil demo: imitating one expert demonstration of point_mass_maze/{out['task']} "
-        f"with the committed cpu FB model ({out['episodes']} evaluation episodes per method)"
-    )
-    _print_scores(out)
-    print(f"figure: {out['picture']}")
+    for task in demo_tasks(args.tasks):
+        out = run_demo(task, args.methods, args.episodes, args.out)
+        print(
+            f"fbil demo: imitating one expert demonstration of point_mass_maze/{out['task']} "
+            f"with the committed cpu FB model ({out['episodes']} evaluation episodes per "
+            "method)"
+        )
+        _print_scores(out)
+        print(f"figure: {out['picture']}")
     print(f"total: {time.perf_counter() - started:.1f} s")
     return 0
 
@@ -537,35 +491,87 @@ def _cmd_report(args: argparse.Namespace) -> int:
     return 0
 
 
-def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
-        prog="fbil",
-        description="Fast imitation learning with forward-backward behavior foundation models.",
+# -- the parser: one builder per subcommand, shared options from parent parsers ----------
+THREADS_HELP = (
+    "torch threads (benchmark: per worker); 1 so that fbil processes sharing a few cores "
+    "don't slow each other down; raise it when this process has the cores to itself"
+)
+
+
+class _HelpFormatter(argparse.HelpFormatter):
+    """Ends each option's help with its default, where it has one worth showing."""
+
+    def _get_help_string(self, action: argparse.Action) -> str | None:
+        text = action.help or ""
+        default = action.default
+        if default is None or default is False or default == argparse.SUPPRESS:
+            return text
+        if not action.option_strings or "%(default)" in text:
+            return text
+        return f"{text} (default: %(default)s)"
+
+
+def _parent(*options: tuple[str, dict[str, Any]]) -> argparse.ArgumentParser:
+    parent = argparse.ArgumentParser(add_help=False)
+    for name, kwargs in options:
+        parent.add_argument(name, **kwargs)
+    return parent
+
+
+_OUT_FILE = [("--out", "file")]
+_OUT_FOLDER = [("--out", "folder")]
+_JSON = _parent(("--json", {"action": "store_true", "help": "print one JSON object"}))
+_THREADS = _parent(("--threads", {"type": int, "default": 1, "help": THREADS_HELP}))
+_SEED = _parent(("--seed", {"type": int, "default": 0, "help": "random seed"}))
+
+
+def _command(
+    sub: Any,
+    name: str,
+    func: Command,
+    about: str,
+    *,
+    with_json: bool = True,
+    threads: bool = False,
+    seed: bool = False,
+    outputs: Sequence[tuple[str, str]] = (),
+) -> argparse.ArgumentParser:
+    """A subcommand with the shared options asked for; `outputs`: (option, "file" or
+    "folder"), each checked to be writable before the command runs."""
+    flags = (with_json, threads, seed)
+    parents = [parent for parent, on in zip((_JSON, _THREADS, _SEED), flags, strict=True) if on]
+    p: argparse.ArgumentParser = sub.add_parser(
+        name, help=about, description=about, parents=parents, formatter_class=_HelpFormatter
     )
-    parser.add_argument("--version", action="version", version=f"fbil {__version__}")
-    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    p.set_defaults(func=func, outputs=outputs)
+    return p
 
-    p = sub.add_parser("tasks", help="list domains, tasks and their sizes")
-    p.add_argument("--json", action="store_true", help="print one JSON object")
-    p.set_defaults(func=_cmd_tasks)
 
-    p = sub.add_parser("render", help="picture of a policy acting in a task")
+def _add_render(sub: Any) -> None:
+    p = _command(
+        sub,
+        "render",
+        _cmd_render,
+        "picture of a policy acting in a task",
+        seed=True,
+        outputs=_OUT_FILE,
+    )
     p.add_argument("domain")
     p.add_argument("task")
-    p.add_argument("--policy", default="random", help="policy to roll out (default: random)")
+    p.add_argument("--policy", default="random", help="policy to roll out")
     p.add_argument("--out", required=True, help="maze: .png/.pdf/.svg; others also .gif/.mp4")
     p.add_argument("--episodes", type=int, default=5, help="maze: trajectories drawn")
     p.add_argument("--steps", type=int, default=None, help="steps per episode")
     p.add_argument("--frames", type=int, default=8, help="locomotion strip: frames shown")
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--json", action="store_true", help="print one JSON object")
-    p.set_defaults(func=_cmd_render)
-    p = sub.add_parser("collect", help="collect a reward-free dataset (ExORL layout)")
+
+
+def _add_collect(sub: Any) -> None:
+    about = "collect a reward-free dataset (ExORL layout)"
+    p = _command(sub, "collect", _cmd_collect, about, threads=True, seed=True, outputs=_OUT_FOLDER)
     p.add_argument("domain")
-    p.add_argument("--explorer", default="rnd", help="rnd (default) or random")
-    p.add_argument("--episodes", type=int, required=True)
+    p.add_argument("--explorer", default="rnd", help="rnd or random")
+    p.add_argument("--episodes", type=int, required=True, help="episodes to collect in all")
     p.add_argument("--out", required=True, help="dataset folder (episodes go to OUT/buffer)")
-    p.add_argument("--seed", type=int, default=0)
     p.add_argument("--resume", action="store_true", help="continue an interrupted collection")
     p.add_argument("--num-envs", type=int, default=8, help="environments stepped in lockstep")
     p.add_argument("--agents", type=int, default=4, help="rnd: independent explorers")
@@ -575,48 +581,58 @@ def build_parser() -> argparse.ArgumentParser:
         "--stddev-max",
         type=float,
         default=None,
-        help="rnd: noise of the last agent (agents spread from --stddev to this)",
+        help="rnd: noise of the last agent (agents spread from --stddev to this; "
+        "default: --stddev)",
     )
     p.add_argument(
         "--starts",
         default="standard",
         help="standard (the domain's start) or uniform (maze: anywhere in the four rooms)",
     )
-    p.add_argument("--threads", type=int, default=None, help="torch threads")
-    p.add_argument("--json", action="store_true", help="print the manifest as JSON")
-    p.set_defaults(func=_cmd_collect)
 
-    p = sub.add_parser("dataset-info", help="size, ranges and coverage of a dataset")
+
+def _add_datasets(sub: Any) -> None:
+    about = "size, ranges and coverage of a dataset"
+    p = _command(sub, "dataset-info", _cmd_dataset_info, about, outputs=[("--plot", "file")])
     p.add_argument("dir")
     p.add_argument("--domain", default=None, help="check the data is of this domain")
     p.add_argument("--plot", default=None, help="write a coverage figure (PNG)")
-    p.add_argument("--json", action="store_true", help="print one JSON object")
-    p.set_defaults(func=_cmd_dataset_info)
-    p = sub.add_parser("dataset-merge", help="one dataset folder from several of one domain")
+    about = "one dataset folder from several of one domain"
+    p = _command(sub, "dataset-merge", _cmd_dataset_merge, about, outputs=_OUT_FOLDER)
     p.add_argument("sources", nargs="+", help="dataset folders, in the order to number them")
     p.add_argument("--out", required=True, help="new dataset folder (must not exist)")
-    p.add_argument("--json", action="store_true", help="print the manifest as JSON")
-    p.set_defaults(func=_cmd_dataset_merge)
-    p = sub.add_parser(
-        "dataset-oversample",
-        help="maze: a dataset with extra copies of the windows around doorway crossings",
-    )
+    about = "maze: a dataset with extra copies of the windows around doorway crossings"
+    p = _command(sub, "dataset-oversample", _cmd_dataset_oversample, about, outputs=_OUT_FOLDER)
     p.add_argument("src", help="maze dataset folder")
     p.add_argument("--out", required=True, help="new dataset folder (must not exist)")
     p.add_argument("--window", type=int, default=30, help="steps kept on each side")
     p.add_argument("--copies", type=int, default=4, help="extra copies of each window")
-    p.add_argument("--json", action="store_true", help="print the manifest as JSON")
-    p.set_defaults(func=_cmd_dataset_oversample)
-    p = sub.add_parser("pretrain", help="pre-train an FB model on a dataset")
+
+
+def _add_compile(p: argparse.ArgumentParser) -> None:
+    from fbil.compile import AUTO_MIN_STEPS, COMPILE_MODES
+
+    p.add_argument(
+        "--compile",
+        default="auto",
+        choices=COMPILE_MODES,
+        help="torch.compile the FB losses (same training, faster after ~1 min of compiling; "
+        f"benchmarks/fb_update.py); auto: on for runs of >= {AUTO_MIN_STEPS} steps",
+    )
+
+
+def _add_pretrain(sub: Any) -> None:
+    about = "pre-train an FB model on a dataset"
+    p = _command(sub, "pretrain", _cmd_pretrain, about, threads=True, outputs=_OUT_FOLDER)
     p.add_argument("domain")
     p.add_argument("--data", required=True, help="dataset folder")
-    p.add_argument("--preset", default="cpu", help="paper, cpu (default) or smoke")
+    p.add_argument("--preset", default="cpu", help="paper, cpu or smoke")
     p.add_argument("--out", required=True, help="model folder")
     p.add_argument("--steps", type=int, default=None, help="gradient steps (preset default)")
-    p.add_argument("--batch-size", type=int, default=None)
-    p.add_argument("--seed", type=int, default=None)
+    p.add_argument("--batch-size", type=int, default=None, help="(preset default)")
+    p.add_argument("--seed", type=int, default=None, help="(preset default)")
     p.add_argument("--device", default="cpu", help="cpu or cuda")
-    p.add_argument("--threads", type=int, default=None, help="torch threads")
+    _add_compile(p)
     p.add_argument("--resume", action="store_true", help="continue from OUT's checkpoint")
     p.add_argument(
         "--set",
@@ -630,35 +646,37 @@ def build_parser() -> argparse.ArgumentParser:
         default=None,
         help="seconds between checkpoints (default 180)",
     )
-    p.add_argument("--json", action="store_true", help="print one JSON object")
-    p.set_defaults(func=_cmd_pretrain)
 
-    p = sub.add_parser("zero-shot", help="zero-shot returns of a model from task rewards")
+
+def _add_zero_shot(sub: Any) -> None:
+    about = "zero-shot returns of a model from task rewards"
+    p = _command(sub, "zero-shot", _cmd_zero_shot, about, threads=True, seed=True)
     p.add_argument("model")
     p.add_argument("--data", required=True, help="dataset to infer z_r from")
-    p.add_argument("--task", default="all")
-    p.add_argument("--episodes", type=int, default=20)
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--threads", type=int, default=None)
-    p.add_argument("--json", action="store_true", help="print one JSON object")
-    p.set_defaults(func=_cmd_zero_shot)
-    p = sub.add_parser("imitate", help="imitation policies from demonstrations")
+    p.add_argument("--tasks", default="all", help="all, a task or a comma list")
+    p.add_argument("--episodes", type=int, default=20, help="episodes per task")
+
+
+def _add_imitate(sub: Any) -> None:
+    about = "imitation policies from demonstrations"
+    p = _command(sub, "imitate", _cmd_imitate, about, threads=True, outputs=_OUT_FOLDER)
     p.add_argument("model", help="FB model folder")
     p.add_argument("demos", help="demo file (.npz)")
-    p.add_argument("--method", default="all", help="a method, a comma list, or all")
-    p.add_argument("--demos-per-run", type=int, default=None, help="use the first K demos")
+    p.add_argument("--methods", default="all", help="all, a method or a comma list")
+    p.add_argument("--k", type=int, default=None, help="use the first K demos (default: all)")
     p.add_argument("--out", default=None, help="folder for the policies (<method>.json)")
-    p.add_argument("--threads", type=int, default=None, help="torch threads")
-    p.add_argument("--json", action="store_true", help="print one JSON object")
-    p.set_defaults(func=_cmd_imitate)
-    p = sub.add_parser("expert", help="train a TD3 expert for a task")
+
+
+def _add_expert(sub: Any) -> None:
+    about = "train a TD3 expert for a task"
+    p = _command(sub, "expert", _cmd_expert, about, threads=True, seed=True, outputs=_OUT_FOLDER)
     p.add_argument("domain")
     p.add_argument("task")
     p.add_argument("--mode", default="offline", help="offline (needs --data) or online")
     p.add_argument("--data", default=None, help="dataset to relabel (offline)")
-    p.add_argument("--out", required=True)
+    p.add_argument("--out", required=True, help="expert folder")
     p.add_argument("--steps", type=int, default=100_000, help="gradient steps")
-    p.add_argument("--eval-every", type=int, default=10_000)
+    p.add_argument("--eval-every", type=int, default=10_000, help="gradient steps")
     p.add_argument(
         "--num-envs",
         type=int,
@@ -689,69 +707,160 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="KEY=VALUE",
         help="override a TD3 setting, e.g. --set tau=0.02 (repeatable)",
     )
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--threads", type=int, default=None)
-    p.add_argument("--resume", action="store_true")
-    p.add_argument("--json", action="store_true", help="print one JSON object")
-    p.set_defaults(func=_cmd_expert)
+    p.add_argument("--resume", action="store_true", help="continue from OUT's checkpoint")
 
-    p = sub.add_parser("demos", help="record demonstrations of a trained expert")
+
+def _add_demos(sub: Any) -> None:
+    about = "record demonstrations of a trained expert"
+    p = _command(sub, "demos", _cmd_demos, about, threads=True, seed=True, outputs=_OUT_FILE)
     p.add_argument("expert_dir")
-    p.add_argument("--episodes", type=int, required=True)
+    p.add_argument("--episodes", type=int, required=True, help="demonstrations to record")
     p.add_argument("--out", required=True, help="demo file (.npz)")
     p.add_argument("--start", default="standard", help="standard or shifted (App. E.5)")
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--json", action="store_true", help="print one JSON object")
-    p.set_defaults(func=_cmd_demos)
 
-    p = sub.add_parser("evaluate", help="imitate from K demos and score each method")
+
+def _add_evaluate(sub: Any) -> None:
+    about = "imitate from K demos and score each method"
+    p = _command(sub, "evaluate", _cmd_evaluate, about, threads=True, seed=True, outputs=_OUT_FILE)
     p.add_argument("model")
     p.add_argument("demos")
-    p.add_argument("--method", default="all", help="a method, a comma list, or all")
-    p.add_argument("--demos-per-run", type=int, default=1, help="K: demonstrations used")
-    p.add_argument("--draw", type=int, default=0, help="which group of K demos to use")
-    p.add_argument("--episodes", type=int, default=10, help="evaluation episodes per method")
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--threads", type=int, default=None)
-    p.add_argument("--json", action="store_true", help="print one JSON object")
-    p.set_defaults(func=_cmd_evaluate)
-
-    p = sub.add_parser("benchmark", help="the task x method x demo-draw grid, resumable")
-    p.add_argument("--domain", required=True)
-    p.add_argument("--model", required=True)
-    p.add_argument("--demos", required=True, help="folder of <task>.npz demo files")
-    p.add_argument("--methods", default="all")
-    p.add_argument("--tasks", default="all", help="all or a comma list")
+    p.add_argument("--methods", default="all", help="all, a method or a comma list")
     p.add_argument("--k", type=int, default=1, help="demonstrations per imitation")
-    p.add_argument("--repetitions", type=int, default=5, help="demo draws per task")
-    p.add_argument("--episodes", type=int, default=20)
+    p.add_argument(
+        "--draw", type=int, default=0, help="which of the file's groups of K demos to use"
+    )
+    p.add_argument("--episodes", type=int, default=10, help="evaluation episodes per method")
+    p.add_argument("--out", default=None, help="also write the JSON object to this file")
+
+
+def _add_benchmark(sub: Any) -> None:
+    about = "the task x method x demo-draw grid, resumable"
+    p = _command(
+        sub,
+        "benchmark",
+        _cmd_benchmark,
+        about,
+        with_json=False,
+        threads=True,
+        seed=True,
+        outputs=_OUT_FILE,
+    )
+    p.add_argument("--domain", required=True, help="the demos' domain")
+    p.add_argument("--model", required=True, help="FB model folder")
+    p.add_argument("--demos", required=True, help="folder of <task>.npz demo files")
+    p.add_argument("--methods", default="all", help="all, a method or a comma list")
+    p.add_argument("--tasks", default="all", help="all, a task or a comma list")
+    p.add_argument("--k", type=int, default=1, help="demonstrations per imitation")
+    p.add_argument("--draws", type=int, default=5, help="demo draws (groups of K) per task")
+    p.add_argument("--episodes", type=int, default=20, help="evaluation episodes per job")
     p.add_argument("--demo-set", default="standard", help="standard or shifted demos")
     p.add_argument("--out", required=True, help="results file (.jsonl), appended")
-    p.add_argument("--workers", type=int, default=1)
+    p.add_argument("--workers", type=int, default=1, help="jobs run in parallel")
     p.add_argument("--backend", default="local", help="local (process pool) or ray")
-    p.add_argument("--seed", type=int, default=0)
     p.add_argument("--quiet", action="store_true", help="no progress bar")
-    p.set_defaults(func=_cmd_benchmark)
 
-    p = sub.add_parser("demo", help="imitate a maze demo with every method (shipped model)")
-    p.add_argument("--task", default="loop", help="maze task whose committed demo to imitate")
-    p.add_argument("--methods", default="all", help="all or a comma list")
+
+def _add_demo(sub: Any) -> None:
+    from fbil.evaluation.demo import DEFAULT_OUT, DEFAULT_TASK
+
+    about = "imitate a maze demo with every method (shipped model)"
+    p = _command(sub, "demo", _cmd_demo, about, with_json=False, threads=True, outputs=_OUT_FOLDER)
+    p.add_argument(
+        "--tasks",
+        default=DEFAULT_TASK,
+        help="maze task(s) whose committed demo to imitate: a task, a comma list or all",
+    )
+    p.add_argument("--methods", default="all", help="all, a method or a comma list")
     p.add_argument("--episodes", type=int, default=10, help="evaluation episodes per method")
-    p.add_argument("--out", default="fbil-demo", help="folder for the figure")
-    p.add_argument("--threads", type=int, default=None)
-    p.set_defaults(func=_cmd_demo)
+    p.add_argument("--out", default=DEFAULT_OUT, help="folder for the figures")
 
-    p = sub.add_parser("report", help="Markdown + figures from benchmark results")
+
+def _add_report(sub: Any) -> None:
+    about = "Markdown + figures from benchmark results"
+    p = _command(sub, "report", _cmd_report, about, with_json=False, outputs=_OUT_FOLDER)
     p.add_argument("results", nargs="+", help="results file(s) of one domain")
     p.add_argument("--out", required=True, help="report folder")
-    p.set_defaults(func=_cmd_report)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="fbil",
+        description="Fast imitation learning with forward-backward behavior foundation models.",
+    )
+    parser.add_argument("--version", action="version", version=f"fbil {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    _command(sub, "tasks", _cmd_tasks, "list domains, tasks and their sizes")
+    for add in (
+        _add_render,
+        _add_collect,
+        _add_datasets,
+        _add_pretrain,
+        _add_zero_shot,
+        _add_imitate,
+        _add_expert,
+        _add_demos,
+        _add_evaluate,
+        _add_benchmark,
+        _add_demo,
+        _add_report,
+    ):
+        add(sub)
     return parser
+
+
+# -- running a command -------------------------------------------------------------------
+def _check_writable(path: str, kind: str, option: str) -> None:
+    """Refuse, before any work, an output path (a file or a folder) that can't be written.
+
+    A probe file is made and removed where the output will go: permission bits say
+    nothing for root, while a read-only mount, /proc or a file in the path refuse root too.
+    """
+    target, fix = Path(path), f"choose another {option}"
+    if target.is_dir() if kind == "file" else target.is_file():
+        found = "a folder" if kind == "file" else "a file"
+        raise FbilError(f"{option} {path} is {found}, not a {kind}; {fix}")
+    if target.is_file():
+        try:
+            with open(target, "a"):
+                pass
+        except OSError as exc:
+            raise FbilError(f"cannot write {option} {path}: {exc.strerror}; {fix}") from None
+        return
+    folder = target if target.is_dir() else target.parent
+    while not folder.exists() and folder != folder.parent:
+        folder = folder.parent
+    if not folder.is_dir():
+        raise FbilError(f"cannot write {option} {path}: {folder} is not a folder; {fix}")
+    try:
+        fd, probe = tempfile.mkstemp(prefix=".fbil-write-check-", dir=folder)
+    except OSError as exc:
+        raise FbilError(
+            f"cannot write {option} {path}: no file can be made in {folder} ({exc.strerror}); {fix}"
+        ) from None
+    os.close(fd)
+    os.unlink(probe)
+
+
+def _prepare(args: argparse.Namespace) -> None:
+    """Before any work: every output path writable, then torch's thread count."""
+    for option, kind in args.outputs:
+        value = getattr(args, option.lstrip("-").replace("-", "_"))
+        if value is not None:
+            _check_writable(str(value), kind, option)
+    threads = getattr(args, "threads", None)
+    if threads is not None:
+        if threads < 1:
+            raise FbilError(f"--threads must be >= 1, got {threads}")
+        import torch
+
+        torch.set_num_threads(threads)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     command: Command = args.func
     try:
+        _prepare(args)
         return command(args)
     except FbilError as exc:
         print(f"fbil: error: {exc}", file=sys.stderr)

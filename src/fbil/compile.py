@@ -14,8 +14,6 @@ import warnings
 from collections.abc import Callable
 from typing import Any, Literal, TypeVar
 
-import torch
-
 from fbil.errors import FbilError
 
 F = TypeVar("F", bound=Callable[..., Any])
@@ -34,6 +32,8 @@ def use_compile(mode: str, steps: int) -> bool:
 
 class _Compiled:
     def __init__(self, fn: Callable[..., Any]) -> None:
+        import torch  # here, so that the CLI reads this module's constants without torch
+
         self.eager = fn
         self.fast: Callable[..., Any] | None = torch.compile(fn, dynamic=False)
 

@@ -35,7 +35,7 @@ def test_dataset_rewards_equal_online_rewards_and_are_cached(tmp_path: Path) -> 
 def test_doorway_crossings_count_room_changes_in_the_raw_files(tmp_path: Path) -> None:
     """Real maze rollouts pushed through two doorways, counted again from the episode
     files: a crossing is a step whose quadrant (signs of x and y) changes."""
-    from fbil.data.coverage import doorway_crossings
+    from fbil.envs.maze_hooks import doorway_crossings
 
     # Next to the left doorway pushing down, next to the top doorway pushing right.
     starts = np.array([[-0.24, 0.03, 0.0, 0.0], [-0.03, 0.24, 0.0, 0.0]])

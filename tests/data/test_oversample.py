@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from fbil.data import load_dataset
-from fbil.data.coverage import doorway_crossings
 from fbil.data.oversample import oversample_crossings
 from fbil.data.storage import write_episode, write_manifest
+from fbil.envs.maze_hooks import doorway_crossings
 from fbil.errors import FbilError
 
 

@@ -6,6 +6,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 ARTIFACTS = Path(__file__).resolve().parents[2] / "artifacts"
 
 
@@ -43,3 +45,24 @@ def test_a_corrupted_artifact_is_named_with_its_fix(tmp_path: Path) -> None:
     message = res.stderr.strip().splitlines()
     assert len(message) == 1 and "loop.npz" in message[0] and "regenerate" in message[0]
     assert "Traceback" not in res.stderr
+
+
+def test_the_default_figure_folder_is_gitignored() -> None:
+    from fbil.evaluation.demo import DEFAULT_OUT
+
+    repo = ARTIFACTS.parent
+    if not (repo / ".git").exists():
+        pytest.skip("not a git checkout")
+    res = subprocess.run(
+        ["git", "-C", str(repo), "check-ignore", "-q", f"{DEFAULT_OUT}/demo_loop.png"],
+        capture_output=True,
+    )
+    assert res.returncode == 0, f"{DEFAULT_OUT} is not gitignored"
+
+
+def test_unknown_tasks_are_refused_before_any_work(tmp_path: Path) -> None:
+    res = run("--tasks", "loop,nowhere", "--out", str(tmp_path / "figures"))
+    lines = res.stderr.strip().splitlines()
+    assert res.returncode == 2 and len(lines) == 1 and "'nowhere'" in lines[0], res.stderr
+    assert "available: " in lines[0] and "loop" in lines[0]
+    assert not (tmp_path / "figures").exists()  # loop was not run first

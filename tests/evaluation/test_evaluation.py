@@ -70,7 +70,7 @@ def test_bad_requests_are_one_line_errors(smoke_model_dir: Path, demos_dir: Path
     demos = Demos.load(demos_dir / "square.npz")
     with pytest.raises(FbilError, match="unknown method"):
         evaluate(model, demos, "erfb,nope", episodes=1)
-    with pytest.raises(FbilError, match="demos-per-run"):
+    with pytest.raises(FbilError, match="--k must be in"):
         evaluate(model, demos, "erfb", k=5, episodes=1)
     no_task = Demos(demos.trajectories, {"domain": "point_mass_maze"})
     with pytest.raises(FbilError, match="domain and task"):
@@ -79,7 +79,8 @@ def test_bad_requests_are_one_line_errors(smoke_model_dir: Path, demos_dir: Path
         make_jobs(smoke_model_dir, demos_dir, "point_mass_maze", ["loop"], ["erfb"], 1, 1, 1)
 
 
-def _benchmark_cmd(model: Path, demos: Path, out: Path) -> list[str]:
+def _benchmark_cmd(model: Path, demos: Path, out: Path, *extra: str) -> list[str]:
+    """The 2 x 2 x 1 grid of 2-episode jobs; `extra` options replace those before them."""
     return [
         sys.executable,
         "-m",
@@ -95,13 +96,14 @@ def _benchmark_cmd(model: Path, demos: Path, out: Path) -> list[str]:
         ",".join(TASKS),
         "--methods",
         "erfb,goalfb",
-        "--repetitions",
+        "--draws",
         "1",
         "--episodes",
         "2",
         "--out",
         str(out),
         "--quiet",
+        *extra,
     ]
 
 
@@ -155,6 +157,79 @@ def test_benchmark_killed_and_resumed_runs_every_job_once(
     (row,) = [line for line in text.splitlines() if line.startswith("| square | ")]
     expert = next(r["expert_return"] for r in rows if r["task"] == "square")
     assert f"| {expert:.1f} | 952.9 | {100 * expert / 952.9:.1f} % | 123.5 |" in row
+
+
+def _session_processes(sid: int) -> list[int]:
+    """Live (not zombie) processes of session `sid`, from /proc."""
+    pids = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except (OSError, IndexError):
+            continue  # the process ended while being read
+        if int(fields[3]) == sid and fields[0] != "Z":
+            pids.append(int(stat.parent.name))
+    return pids
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads /proc")
+def test_ctrl_c_stops_a_parallel_benchmark_at_once_and_resume_completes_it(
+    smoke_model_dir: Path, demos_dir: Path, tmp_path: Path
+) -> None:
+    """Ctrl-C, as a terminal sends it (SIGINT to the whole process group), on a 16-job grid
+    run by 2 workers: exit within 5 s, no process left behind, finished lines kept; the
+    resumed grid then holds every job exactly once."""
+    out = tmp_path / "results.jsonl"
+    grid = ("--draws", "4", "--episodes", "1", "--workers", "2")
+    cmd = _benchmark_cmd(smoke_model_dir, demos_dir, out, *grid)
+    proc = subprocess.Popen(
+        cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True
+    )
+    try:
+        deadline = time.time() + 240
+        while time.time() < deadline and proc.poll() is None:
+            if out.exists() and out.read_text().count("\n") >= 1:
+                break
+            time.sleep(0.02)
+        assert proc.poll() is None, proc.stderr.read() if proc.stderr else ""
+        lines_before = out.read_text().splitlines()
+        os.killpg(proc.pid, signal.SIGINT)
+        started = time.monotonic()
+        _, stderr = proc.communicate(timeout=30)
+        assert time.monotonic() - started < 5
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+    assert proc.returncode == 130 and stderr.strip() == "fbil: interrupted", stderr
+    deadline = time.time() + 2  # the multiprocessing resource tracker sees its pipe close
+    while _session_processes(proc.pid) and time.time() < deadline:
+        time.sleep(0.05)
+    assert _session_processes(proc.pid) == []
+    kept = out.read_text().splitlines()
+    assert 1 <= len(kept) < 16 and kept[: len(lines_before)] == lines_before
+    assert all(json.loads(line)["returns"] for line in kept)  # whole lines only
+    res = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    assert res.returncode == 0, res.stderr
+    keys = [(r["task"], r["method"], r["draw"]) for r in read_results(out)]
+    expected = [(t, m, d) for t in TASKS for m in ("erfb", "goalfb") for d in range(4)]
+    assert sorted(keys) == sorted(expected)
+
+
+def test_evaluate_writes_its_json_to_out(
+    smoke_model_dir: Path, demos_dir: Path, tmp_path: Path
+) -> None:
+    out = tmp_path / "scores" / "square.json"
+    args = [str(smoke_model_dir), str(demos_dir / "square.npz"), "--methods", "erfb"]
+    options = ["--episodes", "1", "--json", "--out", str(out)]
+    res = subprocess.run(
+        [sys.executable, "-m", "fbil", "evaluate", *args, *options],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert res.returncode == 0, res.stderr
+    assert json.loads(out.read_text()) == json.loads(res.stdout)
+    assert set(json.loads(res.stdout)["methods"]) == {"erfb"}
 
 
 def test_results_files_that_cannot_be_trusted_are_refused(tmp_path: Path) -> None:

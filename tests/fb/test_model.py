@@ -115,10 +115,10 @@ def test_zero_shot_cli_reports_every_maze_task(
     assert list(tasks) == EXPECTED["point_mass_maze"][2]
     assert all(t["episodes"] == 2 and math.isfinite(t["return_mean"]) for t in tasks.values())
     # A comma list runs those tasks, in that order, with the same returns as `all`.
-    some = _zero_shot_cli(directory, data, "--task", "square,reach_top_left")
+    some = _zero_shot_cli(directory, data, "--tasks", "square,reach_top_left")
     assert some.returncode == 0, some.stderr
     assert json.loads(some.stdout)["tasks"] == {t: tasks[t] for t in ("square", "reach_top_left")}
-    bad = _zero_shot_cli(directory, data, "--task", "square,reach_middle")
+    bad = _zero_shot_cli(directory, data, "--tasks", "square,reach_middle")
     assert bad.returncode == 2 and "unknown task 'reach_middle'" in bad.stderr
     assert len(bad.stderr.strip().splitlines()) == 1
 

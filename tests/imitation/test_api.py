@@ -125,7 +125,7 @@ def test_cli_imitate_prints_times_and_z(smoke_model_dir: Path, demos: Path, tmp_
             "imitate",
             str(smoke_model_dir),
             str(demos),
-            "--method",
+            "--methods",
             "erfb,goalfb,bcfb",
             "--json",
             "--out",

@@ -26,7 +26,6 @@ from fbil.config import config_from_dict
 from fbil.csvlog import truncate_log
 from fbil.data import load_dataset
 from fbil.envs import BatchedEnv, get_domain, get_task
-from fbil.envs.maze import START_HIGH, START_LOW
 from fbil.errors import FbilError
 from fbil.imitation.demos import Demos, Trajectory
 
@@ -398,15 +397,12 @@ def load_expert(directory: str | Path) -> tuple[TD3, dict[str, Any]]:
 
 
 def shifted_starts(domain: str, agent: TD3, task: str, seeds: list[int]) -> np.ndarray:
-    """Physics states to start shifted demonstrations from (paper App. E.5): the maze's
-    top-right room, or step 500 of an expert rollout for locomotion."""
-    spec = get_domain(domain)
-    if domain == "point_mass_maze":
-        rng = np.random.default_rng(seeds[0])
-        xy = rng.uniform(START_LOW, START_HIGH, (len(seeds), 2))  # top-right: x, y > 0
-        return np.concatenate([xy, np.zeros((len(seeds), 2))], axis=1)
-    warm = BatchedEnv(domain, task, len(seeds)).rollout(ExpertPolicy(agent), seeds, steps=500)
-    return warm.physics[:, -1].reshape(len(seeds), spec.physics_dim)
+    """Physics states to start shifted demonstrations from (paper App. E.5), the domain's
+    "shifted" start hook: the maze's top-right room, or step 500 of an expert rollout for
+    locomotion."""
+    starts = get_domain(domain).start_states("shifted", seeds, task, ExpertPolicy(agent))
+    assert starts is not None
+    return starts
 
 
 def make_demos(

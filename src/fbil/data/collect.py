@@ -20,7 +20,7 @@ from tqdm.auto import tqdm
 
 from fbil import __version__
 from fbil.checkpoint import load_state, save_state
-from fbil.data.coverage import CoverageTracker
+from fbil.data.coverage import coverage_tracker
 from fbil.data.rnd import RNDConfig, RNDPopulation
 from fbil.data.storage import (
     episode_arrays,
@@ -30,8 +30,7 @@ from fbil.data.storage import (
     write_episode,
     write_manifest,
 )
-from fbil.envs import BatchedEnv, RandomPolicy, get_domain
-from fbil.envs.maze import random_free_positions
+from fbil.envs import DOMAINS, BatchedEnv, RandomPolicy, get_domain
 from fbil.errors import FbilError
 
 EXPLORERS = ("rnd", "random")
@@ -100,19 +99,12 @@ def collect(
     command: str = "",
     starts: str = "standard",
 ) -> dict[str, Any]:
-    """Collect `episodes` reward-free episodes. `starts="uniform"` (maze only) starts each
-    episode at a uniformly random free position of the whole maze instead of the top-left
-    room: with the cpu-sized budget (1 M steps, not ExORL's 10 M), RND from the standard
-    start leaves the bottom rooms' interiors unvisited."""
-    spec = get_domain(domain)
-    if starts not in STARTS:
-        raise FbilError(f"unknown --starts {starts!r}; valid: {', '.join(STARTS)}")
-    if starts == "uniform" and domain != "point_mass_maze":
-        raise FbilError("--starts uniform is defined for point_mass_maze only")
-    if explorer not in EXPLORERS:
-        raise FbilError(f"unknown explorer {explorer!r}; valid explorers: {', '.join(EXPLORERS)}")
-    if episodes < 1:
-        raise FbilError(f"--episodes must be at least 1, got {episodes}")
+    """Collect `episodes` reward-free episodes. `starts` names one of the domain's start
+    variants: "uniform" (the maze) starts each episode at a uniformly random free position
+    of the whole maze instead of the top-left room: with the cpu-sized budget (1 M steps,
+    not ExORL's 10 M), RND from the standard start leaves the bottom rooms' interiors
+    unvisited."""
+    _check_request(domain, explorer, episodes, starts)
     if threads is not None:
         torch.set_num_threads(threads)
     out = Path(out)
@@ -134,65 +126,100 @@ def collect(
     }
     manifest["episodes_requested"] = episodes
     write_manifest(out, manifest)
-
-    policy: Any
-    if explorer == "rnd":
-        agent = RNDPopulation(spec.obs_dim, spec.act_dim, cfg, seed)
-        ckpt = out / CHECKPOINT
-        if done and ckpt.is_file():
-            agent.load(load_state(ckpt))
-        _refill(agent, out, done)
-        policy = agent
-    else:
-        agent = None
-        policy = RandomPolicy(spec.act_dim, seed=_episode_seed(seed, done))
-
-    tracker = CoverageTracker(domain)
-    if done:
-        for f in list_episodes(out)[-200:]:
-            tracker.update(load_episode(f.path, ("observation",))["observation"])
-    envs: dict[int, BatchedEnv] = {}
+    run = _Run(domain, out, seed, starts, cfg, manifest)
+    run.start(explorer, done)
     bar = tqdm(
         total=episodes, initial=done, disable=not progress, desc=f"collect {domain}", unit="ep"
     )
-    started, steps = time.perf_counter(), 0
-    wall_before = float(manifest.get("wall_seconds", 0.0))
     while done < episodes:
         n = min(cfg.num_envs, episodes - done)
-        batch = envs.setdefault(n, BatchedEnv(domain, None, n))
-        seeds = [_episode_seed(seed, i) for i in range(done, done + n)]
-        start_states = None
-        if starts == "uniform":
-            rng = np.random.default_rng(seeds[0])
-            start_states = np.concatenate([random_free_positions(rng, n), np.zeros((n, 2))], 1)
-        ep = batch.rollout(policy, seeds, start_states=start_states)
+        bar.set_postfix(run.batch(done, n))
+        bar.update(n)
+        done += n
+    bar.close()
+    return manifest
+
+
+def _check_request(domain: str, explorer: str, episodes: int, starts: str) -> None:
+    spec = get_domain(domain)
+    if starts not in STARTS:
+        raise FbilError(f"unknown --starts {starts!r}; valid: {', '.join(STARTS)}")
+    if starts != "standard" and starts not in spec.hooks.starts:
+        defined = ", ".join(d.name for d in DOMAINS.values() if starts in d.hooks.starts)
+        raise FbilError(f"--starts {starts} is defined for {defined} only")
+    if explorer not in EXPLORERS:
+        raise FbilError(f"unknown explorer {explorer!r}; valid explorers: {', '.join(EXPLORERS)}")
+    if episodes < 1:
+        raise FbilError(f"--episodes must be at least 1, got {episodes}")
+
+
+class _Run:
+    """One collection in progress: the explorer, its environments, the running coverage."""
+
+    def __init__(
+        self,
+        domain: str,
+        out: Path,
+        seed: int,
+        starts: str,
+        cfg: RNDConfig,
+        manifest: dict[str, Any],
+    ) -> None:
+        self.spec, self.out, self.seed, self.starts = get_domain(domain), out, seed, starts
+        self.cfg, self.manifest = cfg, manifest
+        self.envs: dict[int, BatchedEnv] = {}
+        self.tracker = coverage_tracker(domain)
+        self.agent: RNDPopulation | None = None
+        self.policy: Any = None
+        self.started, self.steps = time.perf_counter(), 0
+        self.wall_before = float(manifest.get("wall_seconds", 0.0))
+
+    def start(self, explorer: str, done: int) -> None:
+        """The explorer (restored when resuming) and the coverage of the last episodes."""
+        if explorer == "rnd":
+            self.agent = RNDPopulation(self.spec.obs_dim, self.spec.act_dim, self.cfg, self.seed)
+            ckpt = self.out / CHECKPOINT
+            if done and ckpt.is_file():
+                self.agent.load(load_state(ckpt))
+            _refill(self.agent, self.out, done)
+            self.policy = self.agent
+        else:
+            self.policy = RandomPolicy(self.spec.act_dim, seed=_episode_seed(self.seed, done))
+        if done:
+            for f in list_episodes(self.out)[-200:]:
+                self.tracker.update(load_episode(f.path, ("observation",))["observation"])
+        self.started = time.perf_counter()
+
+    def batch(self, done: int, n: int) -> dict[str, str]:
+        """Roll out and write episodes done..done+n-1; returns the progress bar's postfix."""
+        spec, agent = self.spec, self.agent
+        batch = self.envs.setdefault(n, BatchedEnv(spec.name, None, n))
+        seeds = [_episode_seed(self.seed, i) for i in range(done, done + n)]
+        start_states = spec.start_states(self.starts, seeds)
+        ep = batch.rollout(self.policy, seeds, start_states=start_states)
         if agent is not None:
             agent.end_episodes(ep.observation, ep.action)
         for i in range(n):
             write_episode(
-                out,
+                self.out,
                 done + i,
                 episode_arrays(ep.observation[i], ep.action[i], ep.reward[i], ep.physics[i]),
             )
-        done += n
-        steps += n * spec.episode_length
+        self.steps += n * spec.episode_length
         if agent is not None:
-            save_state(out / CHECKPOINT, agent.state())
-        tracker.update(ep.observation)
-        elapsed = time.perf_counter() - started
-        manifest.update(
-            episodes=done,
-            transitions=done * spec.episode_length,
-            wall_seconds=round(wall_before + elapsed, 1),
+            save_state(self.out / CHECKPOINT, agent.state())
+        self.tracker.update(ep.observation)
+        elapsed = time.perf_counter() - self.started
+        self.manifest.update(
+            episodes=done + n,
+            transitions=(done + n) * spec.episode_length,
+            wall_seconds=round(self.wall_before + elapsed, 1),
         )
-        write_manifest(out, manifest)
-        postfix = {"steps/s": f"{steps / elapsed:.0f}", "coverage": tracker.summary()}
+        write_manifest(self.out, self.manifest)
+        postfix = {"steps/s": f"{self.steps / elapsed:.0f}", "coverage": self.tracker.summary()}
         if agent is not None:
             postfix["intrinsic"] = f"{agent.last_intrinsic:.3g}"
-        bar.set_postfix(postfix)
-        bar.update(n)
-    bar.close()
-    return manifest
+        return postfix
 
 
 def _refill(population: RNDPopulation, out: Path, done: int) -> None:

@@ -12,11 +12,14 @@ from __future__ import annotations
 
 import contextlib
 import logging
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+
+from fbil.envs.hooks import DomainHooks, Policy
+from fbil.errors import FbilError
 
 # Named arrays, one row per state: shape (N,) or (N, k).
 Quantities = dict[str, np.ndarray]
@@ -54,11 +57,31 @@ class DomainSpec:
     read_quantities: Callable[[Any], dict[str, np.ndarray | float]]
     episode_length: int = 1000
     camera_id: int = 0
-    extra: Mapping[str, Any] = field(default_factory=dict)
+    # What differs between domains beyond the physics: start variants, coverage summary,
+    # oversampling, pictures (see fbil.envs.hooks). Generic code asks these, never a name.
+    hooks: DomainHooks = field(default_factory=DomainHooks)
 
     @property
     def task_names(self) -> list[str]:
         return list(self.tasks)
+
+    def start_states(
+        self,
+        variant: str,
+        seeds: Sequence[int],
+        task: str | None = None,
+        policy: Policy | None = None,
+    ) -> np.ndarray | None:
+        """(len(seeds), physics_dim) physics states to start episodes from, for start
+        `variant`; None for "standard" (the domain's own initial-state distribution)."""
+        if variant == "standard":
+            return None
+        draw = self.hooks.starts.get(variant)
+        if draw is None:
+            valid = ", ".join(["standard", *self.hooks.starts])
+            raise FbilError(f"start {variant!r} is not defined for {self.name}; valid: {valid}")
+        states = np.asarray(draw(seeds, task, policy), dtype=np.float64)
+        return states.reshape(len(seeds), self.physics_dim)
 
 
 def linear_tolerance(

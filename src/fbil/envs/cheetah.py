@@ -8,6 +8,7 @@ import numpy as np
 from dm_control.suite import cheetah
 
 from fbil.envs.base import DomainSpec, Quantities, TaskSpec, linear_tolerance, quiet_model_compile
+from fbil.envs.locomotion import Locomotion, wrap_angle
 
 RUN_SPEED, WALK_SPEED = 10.0, 2.0
 
@@ -29,6 +30,34 @@ def _speed(target: float, direction: float) -> Any:
     return reward
 
 
+def _features(q: Quantities, obs: np.ndarray) -> dict[str, np.ndarray]:
+    # The observation: qpos without rootx (rootz, rooty, 6 joints), then qvel.
+    return {
+        "torso_height": obs[:, 0],
+        "torso_angle": np.degrees(wrap_angle(obs[:, 1])),
+        "speed": q["speed"],
+        "angular_velocity": obs[:, 10],
+    }
+
+
+def physics_from_observation(obs: np.ndarray) -> np.ndarray:
+    """Physics states (qpos, qvel) behind (N, 17) observations, rootx set to 0 (the
+    tracking camera ignores it)."""
+    return np.concatenate([np.zeros((len(obs), 1)), obs[:, :17]], axis=1)
+
+
+_LOCOMOTION = Locomotion(
+    "cheetah",
+    _features,
+    {
+        "torso_height": "torso height from the start (m)",
+        "torso_angle": "torso angle (deg, 0 = level)",
+        "speed": "forward speed (m/s)",
+        "angular_velocity": "torso angular velocity (rad/s)",
+    },
+    physics_from_observation,
+)
+
 _CUSTOM = "URLB/offline_rl cheetah"
 _TASKS = [
     TaskSpec("run", _speed(RUN_SPEED, 1.0), "run forward at >= 10 m/s", "dm_control"),
@@ -47,4 +76,5 @@ DOMAIN = DomainSpec(
     tasks={t.name: t for t in _TASKS},
     build=_build,
     read_quantities=_read,
+    hooks=_LOCOMOTION.hooks(),
 )

@@ -15,16 +15,22 @@ from dm_control.mujoco import Physics
 from dm_control.suite import base, common
 from dm_control.utils import rewards
 
+from fbil.envs import maze_hooks
 from fbil.envs.base import DomainSpec, Quantities, TaskSpec, linear_tolerance
 
-ARENA_HALF = 0.3  # inner faces of the outer walls
-ARM_HALF_LENGTH = 0.18  # arms of the "+" wall
-WALL_HALF_THICKNESS = 0.02
-JOINT_LIMIT = 0.29  # slide range of x and y
-START_LOW, START_HIGH = 0.15, 0.29  # |x|, |y| of the top-left start box
-MASS_RADIUS = 0.01
-GOAL_SIZE = 0.015
-ROOMS = ("top_left", "top_right", "bottom_left", "bottom_right")
+# The geometry, re-exported: `maze.ROOMS`, `maze.in_inner_wall`, ... read as before.
+from fbil.envs.maze_geometry import ARENA_HALF as ARENA_HALF
+from fbil.envs.maze_geometry import ARM_HALF_LENGTH as ARM_HALF_LENGTH
+from fbil.envs.maze_geometry import GOAL_SIZE as GOAL_SIZE
+from fbil.envs.maze_geometry import JOINT_LIMIT as JOINT_LIMIT
+from fbil.envs.maze_geometry import MASS_RADIUS as MASS_RADIUS
+from fbil.envs.maze_geometry import ROOMS as ROOMS
+from fbil.envs.maze_geometry import START_HIGH as START_HIGH
+from fbil.envs.maze_geometry import START_LOW as START_LOW
+from fbil.envs.maze_geometry import WALL_HALF_THICKNESS as WALL_HALF_THICKNESS
+from fbil.envs.maze_geometry import in_inner_wall as in_inner_wall
+from fbil.envs.maze_geometry import random_free_positions as random_free_positions
+from fbil.envs.maze_geometry import room_of as room_of
 
 _XML = """
 <mujoco model="fbil point-mass maze">
@@ -113,32 +119,6 @@ def _read(physics: Any) -> dict[str, np.ndarray | float]:
         "velocity": physics.data.qvel[:2].copy(),
         "control": physics.data.ctrl[:2].copy(),
     }
-
-
-def room_of(xy: np.ndarray) -> np.ndarray:
-    """Index into ROOMS of each (x, y) row."""
-    xy = np.asarray(xy)
-    right = xy[..., 0] > 0
-    bottom = xy[..., 1] < 0
-    return right.astype(int) + 2 * bottom.astype(int)
-
-
-def in_inner_wall(xy: np.ndarray, thick_margin: float, length_margin: float) -> np.ndarray:
-    """True for each (..., 2) position within the "+" wall grown by the margins (across
-    and along its arms)."""
-    ax, ay = np.abs(xy[..., 0]), np.abs(xy[..., 1])
-    thick, arm = WALL_HALF_THICKNESS + thick_margin, ARM_HALF_LENGTH + length_margin
-    return ((ax < thick) & (ay < arm)) | ((ay < thick) & (ax < arm))
-
-
-def random_free_positions(rng: np.random.Generator, n: int) -> np.ndarray:
-    """(n, 2) positions uniform over the free floor of all four rooms (walls excluded)."""
-    margin = MASS_RADIUS + 0.005
-    found: list[np.ndarray] = []
-    while sum(len(f) for f in found) < n:
-        xy = rng.uniform(-JOINT_LIMIT, JOINT_LIMIT, (2 * n, 2))
-        found.append(xy[~in_inner_wall(xy, margin, WALL_HALF_THICKNESS + margin)])
-    return np.concatenate(found)[:n]
 
 
 def _reach_reward(q: Quantities, goal: tuple[float, float]) -> np.ndarray:
@@ -287,4 +267,5 @@ DOMAIN = DomainSpec(
     tasks={t.name: t for t in _TASKS},
     build=_build,
     read_quantities=_read,
+    hooks=maze_hooks.HOOKS,
 )

@@ -8,6 +8,7 @@ import numpy as np
 from dm_control.suite import common, quadruped
 
 from fbil.envs.base import DomainSpec, Quantities, TaskSpec, linear_tolerance, quiet_model_compile
+from fbil.envs.locomotion import Locomotion
 
 WALK_SPEED, RUN_SPEED = 0.5, 5.0
 JUMP_HEIGHT = 1.0
@@ -47,6 +48,33 @@ def _jump(q: Quantities) -> np.ndarray:
     return _upright(q) * linear_tolerance(q["com_height"], JUMP_HEIGHT, INF, JUMP_HEIGHT, 0.5)
 
 
+GYRO = slice(51, 54)  # the observation's imu gyro (after 44 joint, 3 velocity, 1 upright, 3 accel)
+
+
+def _features(q: Quantities, obs: np.ndarray) -> dict[str, np.ndarray]:
+    velocity = q["torso_velocity"]
+    return {
+        "com_height": q["com_height"],
+        "torso_tilt": np.degrees(np.arccos(np.clip(q["torso_upright"], -1.0, 1.0))),
+        "forward_velocity": velocity[:, 0],
+        "horizontal_speed": np.linalg.norm(velocity[:, :2], axis=1),
+        "angular_speed": np.linalg.norm(obs[:, GYRO], axis=1),
+    }
+
+
+# The observation has no root position or orientation: no frames of kept rollouts.
+_LOCOMOTION = Locomotion(
+    "quadruped",
+    _features,
+    {
+        "com_height": "centre-of-mass height (m)",
+        "torso_tilt": "torso tilt (deg, 0 = upright)",
+        "forward_velocity": "forward velocity, torso frame (m/s)",
+        "horizontal_speed": "horizontal speed, torso frame (m/s)",
+        "angular_speed": "angular speed, gyro (rad/s)",
+    },
+)
+
 _CUSTOM = "URLB/offline_rl quadruped"
 _TASKS = [
     TaskSpec("stand", _upright, "keep the torso upright", _CUSTOM),
@@ -66,4 +94,5 @@ DOMAIN = DomainSpec(
     build=_build,
     read_quantities=_read,
     camera_id=2,
+    hooks=_LOCOMOTION.hooks(),
 )

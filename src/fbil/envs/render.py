@@ -14,6 +14,8 @@ from typing import Any
 import numpy as np
 
 from fbil.envs import maze
+from fbil.envs.env import FbilEnv
+from fbil.envs.hooks import RenderRequest
 from fbil.envs.registry import get_task
 from fbil.envs.rollout import BatchedEnv, Policy
 from fbil.errors import FbilError
@@ -142,14 +144,20 @@ def locomotion_frames(
     size: tuple[int, int] = (240, 320),
 ) -> list[np.ndarray]:
     """Roll out one episode and render `n_frames` evenly spaced frames of it."""
-    batch = BatchedEnv(domain, task, 1)
-    episodes = batch.rollout(policy, [seed], steps)
-    env = batch.envs[0]
-    env._render_size = size
+    episodes = BatchedEnv(domain, task, 1).rollout(policy, [seed], steps)
     picks = np.linspace(0, steps, n_frames).round().astype(int)
+    return render_states(domain, task, episodes.physics[0, picks], size)
+
+
+def render_states(
+    domain: str, task: str, states: np.ndarray, size: tuple[int, int] = (240, 320)
+) -> list[np.ndarray]:
+    """One frame (H, W, 3) per physics state, from the domain's camera."""
+    env = FbilEnv(domain, task)
+    env._render_size = size
     frames = []
-    for t in picks:
-        env.set_physics_state(episodes.physics[0, t])
+    for state in states:
+        env.set_physics_state(state)
         frames.append(env.render())
     return frames
 
@@ -186,3 +194,16 @@ def save_frames(frames: list[np.ndarray], out: str | Path, fps: int = 20) -> Pat
         f"unsupported picture type {suffix!r} for {out}; use one of "
         f"{', '.join(IMAGE_SUFFIXES + ANIMATION_SUFFIXES)}"
     )
+
+
+def render_policy(domain: str, request: RenderRequest) -> list[float]:
+    """`fbil render`: the domain's picture of a policy (the maze: x-y paths of
+    `request.episodes` episodes, an image; locomotion: `request.frames` frames of one
+    episode, or an animation); returns the returns of the episodes it drew (empty where
+    the picture shows none)."""
+    from fbil.envs.registry import get_domain
+
+    pictures = get_domain(domain).hooks.pictures
+    if pictures is None:
+        raise FbilError(f"{domain} defines no pictures")
+    return pictures.render(request)

@@ -8,17 +8,18 @@ time-indexed policies such as goal tracking need), actions (N, act_dim) in [-1, 
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 from tqdm.auto import tqdm
 
 from fbil.envs.env import FbilEnv, stack_quantities
+from fbil.envs.hooks import Policy
 from fbil.envs.registry import get_domain, get_task
 from fbil.errors import FbilError
 
-Policy = Callable[[np.ndarray, int], np.ndarray]
+__all__ = ["BatchedEnv", "Episodes", "Policy", "RandomPolicy", "rollout"]
 
 
 @dataclass

@@ -9,11 +9,16 @@ from dm_control.suite import walker
 from dm_control.utils import rewards
 
 from fbil.envs.base import DomainSpec, Quantities, TaskSpec, linear_tolerance, quiet_model_compile
+from fbil.envs.locomotion import Locomotion, wrap_angle
 
 STAND_HEIGHT = 1.2  # dm_control's walker: torso height above which standing pays 1
 WALK_SPEED, RUN_SPEED = 1.0, 8.0
 FLIP_MOMENTUM, SPIN_MOMENTUM = 5.0, 10.0
 INF = float("inf")
+TORSO_Z = 1.3  # the torso body's height in the model, where the root joints sit
+# Parent body of each of the 6 leg bodies, in the model's order after the torso:
+# right thigh, leg, foot, left thigh, leg, foot (body 0 is the torso).
+_PARENT = [0, 1, 2, 0, 4, 5]
 
 
 def _build(rng: np.random.RandomState) -> tuple[Any, Any]:
@@ -57,6 +62,38 @@ def _spin(q: Quantities) -> np.ndarray:
     return linear_tolerance(q["angular_momentum"], SPIN_MOMENTUM, INF, SPIN_MOMENTUM, 0.0)
 
 
+def _features(q: Quantities, obs: np.ndarray) -> dict[str, np.ndarray]:
+    return {
+        "torso_height": q["torso_height"],
+        # The torso's pitch from its rotation matrix (xx, xz): the observation's first pair.
+        "torso_angle": np.degrees(np.arctan2(obs[:, 1], obs[:, 0])),
+        "horizontal_velocity": q["horizontal_velocity"],
+        "angular_momentum": q["angular_momentum"],
+    }
+
+
+def physics_from_observation(obs: np.ndarray) -> np.ndarray:
+    """Physics states (qpos, qvel) behind (N, 24) observations, the horizontal position
+    (which the tracking camera ignores) set to 0. Each body's pitch is atan2(xz, xx) of its
+    orientation pair; a leg joint turns about -y, so its angle is parent minus child."""
+    pitch = np.arctan2(obs[:, 1:14:2], obs[:, 0:14:2])
+    joints = wrap_angle(pitch[:, _PARENT] - pitch[:, 1:])
+    root = np.stack([obs[:, 14] - TORSO_Z, np.zeros(len(obs)), pitch[:, 0]], axis=1)
+    return np.concatenate([root, joints, obs[:, 15:24]], axis=1)
+
+
+_LOCOMOTION = Locomotion(
+    "walker",
+    _features,
+    {
+        "torso_height": "torso height (m)",
+        "torso_angle": "torso angle (deg, 0 = upright)",
+        "horizontal_velocity": "horizontal velocity (m/s)",
+        "angular_momentum": "angular momentum about y",
+    },
+    physics_from_observation,
+)
+
 _URLB = "URLB walker (flip) / offline_rl walker (spin)"
 _TASKS = [
     TaskSpec("stand", _stand, "stand upright with the torso high", "dm_control"),
@@ -81,4 +118,5 @@ DOMAIN = DomainSpec(
     tasks={t.name: t for t in _TASKS},
     build=_build,
     read_quantities=_read,
+    hooks=_LOCOMOTION.hooks(),
 )

@@ -4,18 +4,25 @@ Each finished job appends one JSON line to the results file (all inputs, returns
 timings, commit, seed), flushed and fsynced, so a killed run loses at most the jobs in
 flight; a rerun skips every job already in the file. Jobs run in a local process pool
 (default) or on Ray, for grids that outgrow one machine.
+
+Ctrl-C (SIGINT) stops a run at once: queued jobs are dropped, running workers are
+terminated, and every line already written stays (a line being written is finished first).
 """
 
 from __future__ import annotations
 
 import json
 import os
+import signal
+import threading
 import time
-from collections.abc import Callable, Iterable, Sequence
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from collections import deque
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import asdict, dataclass
 from functools import lru_cache
 from multiprocessing import get_context
+from multiprocessing.connection import Connection, wait
 from pathlib import Path
 from typing import Any
 
@@ -24,6 +31,7 @@ from fbil.checkpoint import atomic_write_text
 from fbil.errors import FbilError
 
 BACKENDS = ("local", "ray")
+Record = Callable[[dict[str, Any]], None]  # called with each finished job's row
 
 
 @dataclass(frozen=True)
@@ -62,7 +70,7 @@ def make_jobs(
 ) -> list[Job]:
     """The grid, in a fixed order (tasks, then draws, then methods)."""
     if draws < 1 or k < 1 or episodes < 1:
-        raise FbilError("--repetitions, --k and --episodes must all be >= 1")
+        raise FbilError("--draws, --k and --episodes must all be >= 1")
     demos_dir = Path(demos_dir)
     jobs = []
     for task in tasks:
@@ -165,6 +173,7 @@ def run_job(job: Job, commit: str = "unknown") -> dict[str, Any]:
         expert=expert,
     )
     row: dict[str, Any] = asdict(job)
+    from fbil.envs import get_domain
     from fbil.imitation.core import OptimiserConfig
 
     row.update(expert_return=out["expert_return"], commit=commit, fbil_version=__version__)
@@ -181,9 +190,12 @@ def run_job(job: Job, commit: str = "unknown") -> dict[str, Any]:
             score=r.score,
             seconds=r.seconds,
         )
-        if job.domain == "point_mass_maze" and job.draw == 0:
-            # One x-y path per (task, method) for the report's pictures (every 2nd step).
-            row["trajectory"] = r.trajectory[::2, :2].round(3).tolist()
+        pictures = get_domain(job.domain).hooks.pictures
+        kept = pictures.keep(r.trajectory) if pictures is not None and job.draw == 0 else None
+        if kept is not None:
+            # What the domain's report picture needs of the first evaluation episode, per
+            # (task, method): the maze's x-y path (every 2nd step), locomotion's frames.
+            row["trajectory"] = kept
     row["wall_seconds"] = round(time.perf_counter() - started, 3)
     return row
 
@@ -194,6 +206,22 @@ def _init_worker(threads: int) -> None:
     torch.set_num_threads(threads)
 
 
+@contextmanager
+def _sigint_deferred() -> Iterator[None]:
+    """Hold a Ctrl-C until the block is done (a results line is never cut in two)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    caught: list[int] = []
+    previous = signal.signal(signal.SIGINT, lambda signum, frame: caught.append(signum))
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+        if caught:
+            raise KeyboardInterrupt
+
+
 # -- the runner --------------------------------------------------------------------------
 def run_benchmark(
     jobs: Sequence[Job],
@@ -202,12 +230,14 @@ def run_benchmark(
     backend: str = "local",
     commit: str = "unknown",
     on_result: Callable[[dict[str, Any]], None] | None = None,
+    threads: int = 1,
 ) -> list[dict[str, Any]]:
-    """Run every job not yet in `out`, appending each result as it finishes."""
+    """Run every job not yet in `out`, appending each result as it finishes (`threads`:
+    torch threads per worker)."""
     if backend not in BACKENDS:
         raise FbilError(f"unknown backend {backend!r}; valid: {', '.join(BACKENDS)}")
-    if workers < 1:
-        raise FbilError(f"--workers must be >= 1, got {workers}")
+    if workers < 1 or threads < 1:
+        raise FbilError(f"--workers and --threads must be >= 1, got {workers} and {threads}")
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
     done_rows = read_results(out)
@@ -216,8 +246,9 @@ def run_benchmark(
     new_rows: list[dict[str, Any]] = []
 
     def record(fh: Any, row: dict[str, Any]) -> None:
-        _append(fh, row)
-        new_rows.append(row)
+        with _sigint_deferred():
+            _append(fh, row)
+            new_rows.append(row)
         if on_result is not None:
             on_result(row)
 
@@ -225,32 +256,102 @@ def run_benchmark(
         if not todo:
             return []
         if backend == "ray":
-            _run_ray(todo, workers, commit, lambda row: record(fh, row))
+            _run_ray(todo, workers, threads, commit, lambda row: record(fh, row))
         elif workers == 1:
-            _init_worker(1)
+            _init_worker(threads)
             for job in todo:
                 record(fh, run_job(job, commit))
         else:
-            _run_pool(todo, workers, commit, lambda row: record(fh, row))
+            _run_pool(todo, workers, threads, commit, lambda row: record(fh, row))
     return new_rows
 
 
-def _run_pool(
-    jobs: Iterable[Job], workers: int, commit: str, record: Callable[[dict[str, Any]], None]
-) -> None:
+def _exit_on_sigterm(signum: int, frame: Any) -> None:
+    raise SystemExit(128 + signum)  # a clean exit: no semaphores left to the tracker
+
+
+def _worker_loop(conn: Connection, threads: int, commit: str) -> None:
+    """A pool worker: run the jobs the parent sends until it sends None."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent alone handles Ctrl-C
+    signal.signal(signal.SIGTERM, _exit_on_sigterm)
+    _init_worker(threads)
+    try:
+        while (job := conn.recv()) is not None:
+            try:
+                result: tuple[bool, Any] = (True, run_job(job, commit))
+            except Exception as exc:  # re-raised in the parent, as a pool would
+                result = (False, exc)
+            conn.send(result)
+    except (EOFError, BrokenPipeError):  # the parent is gone: nothing left to do
+        return
+
+
+def _start_workers(n: int, threads: int, commit: str) -> dict[Connection, Any]:
     # spawn, not fork: a forked PyTorch with OpenMP threads can deadlock in the child.
     ctx = get_context("spawn")
-    with ProcessPoolExecutor(workers, ctx, initializer=_init_worker, initargs=(1,)) as pool:
-        pending = {pool.submit(run_job, job, commit) for job in jobs}
-        while pending:
-            finished, pending = wait(pending, return_when=FIRST_COMPLETED)
-            for fut in finished:
-                record(fut.result())
+    workers: dict[Connection, Any] = {}
+    # Started with SIGINT ignored (inherited through exec), so that a Ctrl-C to the whole
+    # process group, even during their start-up, reaches this process alone.
+    main = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
+    try:
+        for _ in range(n):
+            conn, child = ctx.Pipe()
+            proc = ctx.Process(target=_worker_loop, args=(child, threads, commit), daemon=True)
+            proc.start()
+            child.close()
+            workers[conn] = proc
+    finally:
+        if main:
+            signal.signal(signal.SIGINT, previous)
+    return workers
 
 
-def _run_ray(
-    jobs: Sequence[Job], workers: int, commit: str, record: Callable[[dict[str, Any]], None]
-) -> None:
+def _stop_workers(workers: dict[Connection, Any], grace: float = 0.0) -> None:
+    """Wait up to `grace` seconds for the workers to exit, then terminate the rest (all of
+    them, at once, after Ctrl-C or a failed job)."""
+    for proc in workers.values():
+        proc.join(timeout=grace)
+        if proc.is_alive():
+            proc.terminate()
+    for proc in workers.values():
+        proc.join(timeout=3)
+        if proc.is_alive():
+            proc.kill()
+            proc.join()
+
+
+def _run_pool(jobs: Sequence[Job], workers: int, threads: int, commit: str, record: Record) -> None:
+    """Jobs handed out one at a time from this process, so none is queued in a worker:
+    stopping the run drops the queue here and terminates the workers."""
+    queue = deque(jobs)
+    procs = _start_workers(min(workers, len(queue)), threads, commit)
+    try:
+        busy = set(procs)
+        for conn in busy:
+            conn.send(queue.popleft())
+        while busy:
+            for conn in busy.intersection(wait(list(busy))):
+                try:
+                    ok, payload = conn.recv()
+                except EOFError:
+                    code = procs[conn].exitcode
+                    raise RuntimeError(f"a benchmark worker died (exit code {code})") from None
+                if not ok:
+                    raise payload
+                record(payload)
+                if queue:
+                    conn.send(queue.popleft())
+                else:
+                    conn.send(None)
+                    busy.discard(conn)
+    except BaseException:  # Ctrl-C, a failed job: the queue is dropped with this frame
+        _stop_workers(procs)
+        raise
+    _stop_workers(procs, grace=10.0)
+
+
+def _run_ray(jobs: Sequence[Job], workers: int, threads: int, commit: str, record: Record) -> None:
     try:
         import ray
     except ImportError:
@@ -267,11 +368,15 @@ def _run_ray(
 
     @ray.remote(num_cpus=1)
     def remote_job(job: Job) -> dict[str, Any]:
-        _init_worker(1)
+        _init_worker(threads)
         return run_job(job, commit)
 
     pending = [remote_job.remote(job) for job in jobs]
-    while pending:
-        finished, pending = ray.wait(pending, num_returns=1)
-        for ref in finished:
-            record(ray.get(ref))
+    try:
+        while pending:
+            finished, pending = ray.wait(pending, num_returns=1)
+            for ref in finished:
+                record(ray.get(ref))
+    finally:
+        for ref in pending:  # Ctrl-C or a failed job: cancel the rest
+            ray.cancel(ref, force=True)

@@ -11,11 +11,10 @@ import os
 from pathlib import Path
 from typing import Any
 
-from fbil.artifacts import verify
 from fbil.errors import FbilError
-from fbil.evaluation.evaluate import evaluate
 
 DEFAULT_TASK = "loop"  # a path to follow, where the principles visibly differ
+DEFAULT_OUT = "runs/demo"  # runs/ is gitignored: the demo leaves no untracked files
 
 
 def artifacts_root() -> Path:
@@ -24,31 +23,51 @@ def artifacts_root() -> Path:
     return Path(env) if env else Path(__file__).resolve().parents[3] / "artifacts"
 
 
+def _artifact_folder(root: Path, kind: str) -> Path:
+    folder = root / kind / "point_mass_maze"
+    if not folder.is_dir():
+        raise FbilError(
+            f"missing artifact folder {folder}; run fbil from a clone of its repository "
+            "(or set FBIL_ARTIFACTS to its artifacts/ folder)"
+        )
+    return folder
+
+
+def demo_tasks(spec: str = DEFAULT_TASK, root: str | Path | None = None) -> list[str]:
+    """'all' (every committed standard-start demonstration), a task or a comma list of
+    tasks, each checked to have a committed demonstration."""
+    demos_dir = _artifact_folder(Path(root) if root is not None else artifacts_root(), "demos")
+    names = sorted(p.stem for p in demos_dir.glob("*.npz") if not p.stem.endswith("_shifted"))
+    tasks = names if spec.strip() == "all" else [t.strip() for t in spec.split(",") if t.strip()]
+    for task in tasks or [spec]:
+        if task not in names:
+            raise FbilError(
+                f"no committed demonstration for {task!r}; available: {', '.join(names)}, "
+                "all (or several, comma-separated)"
+            )
+    return tasks
+
+
 def run_demo(
     task: str = DEFAULT_TASK,
     methods: str = "all",
     episodes: int = 10,
-    out: str | Path = "fbil-demo",
+    out: str | Path = DEFAULT_OUT,
     root: str | Path | None = None,
 ) -> dict[str, Any]:
+    from fbil.artifacts import verify
     from fbil.envs.render import plot_imitation_panels
+    from fbil.evaluation.evaluate import evaluate
     from fbil.fb.model import FBModel
     from fbil.imitation.demos import Demos
 
     root = Path(root) if root is not None else artifacts_root()
-    model_dir = root / "models" / "point_mass_maze"
-    demos_dir = root / "demos" / "point_mass_maze"
+    if demo_tasks(task, root) != [task]:
+        raise FbilError(f"run_demo takes one task, got {task!r}; loop over demo_tasks(...)")
+    model_dir, demos_dir = (_artifact_folder(root, kind) for kind in ("models", "demos"))
     for folder in (model_dir, demos_dir):
-        if not folder.is_dir():
-            raise FbilError(
-                f"missing artifact folder {folder}; run fbil from a clone of its repository "
-                "(or set FBIL_ARTIFACTS to its artifacts/ folder)"
-            )
         verify(folder)  # a missing or altered file stops here, naming it
     demo_path = demos_dir / f"{task}.npz"
-    if not demo_path.is_file():
-        names = sorted(p.stem for p in demos_dir.glob("*.npz") if not p.stem.endswith("_shifted"))
-        raise FbilError(f"no committed demonstration for {task!r}; available: {', '.join(names)}")
     model = FBModel.load(model_dir)
     demos = Demos.load(demo_path)
     result = evaluate(model, demos, methods, k=1, draw=0, episodes=episodes)

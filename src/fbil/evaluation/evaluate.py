@@ -56,7 +56,7 @@ def demo_draw(demos: Demos, k: int, draw: int) -> Demos:
     """The `draw`-th disjoint group of K demonstrations (wrapping around the file)."""
     n = len(demos)
     if not 1 <= k <= n:
-        raise FbilError(f"--demos-per-run must be in [1, {n}] for this file, got {k}")
+        raise FbilError(f"--k must be in [1, {n}] for this file, got {k}")
     return demos.select([(draw * k + i) % n for i in range(k)])
 
 

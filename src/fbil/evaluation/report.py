@@ -2,8 +2,9 @@
 
 Sections: mean imitation score per method next to the paper (with 95% confidence
 intervals over demo draws), per-task returns next to the paper's Table 5, time to policy
-next to Table 8, the demo-shift and K comparisons when the results hold them, and (maze)
-the demonstration against each method's rollout, as the paper's Fig. 6.
+next to Table 8, the demo-shift and K comparisons when the results hold them, and the
+demonstration against each method's rollout in the domain's picture (the maze: paths, as
+the paper's Fig. 6; locomotion: frame strips).
 """
 
 from __future__ import annotations
@@ -120,26 +121,37 @@ def _time_figure(summary: dict[str, Any], setting: str, out: Path) -> Path:
     return _save(fig, out)
 
 
-def _trajectory_figures(rows: Sequence[dict[str, Any]], out_dir: Path) -> list[tuple[str, str]]:
-    from fbil.envs.render import plot_imitation_panels
+def _trajectory_figures(domain: str, rows: Sequence[dict[str, Any]], out_dir: Path) -> list[str]:
+    """The domain's picture of the demonstration against each method's kept rollout
+    (benchmark rows of the standard K=1 setting, first draw), one per task, under the
+    domain's heading; nothing where the domain keeps no rollouts."""
+    from fbil.envs import get_domain
+    from fbil.envs.hooks import ImitationPicture
     from fbil.imitation.demos import Demos
 
+    pictures = get_domain(domain).hooks.pictures
+    if pictures is None:
+        return []
     by_task: dict[str, dict[str, Any]] = defaultdict(dict)
     demo_files: dict[str, str] = {}
     for r in rows:
         if r.get("trajectory") and r["demo_set"] == "standard" and r["k"] == 1:
             by_task[r["task"]][r["method"]] = np.asarray(r["trajectory"])
             demo_files[r["task"]] = r["demos"]
-    pictures = []
+    lines: list[str] = []
     for task in sorted(by_task):
         try:
-            demo = Demos.load(demo_files[task]).trajectories[0].observation
+            demo = Demos.load(demo_files[task]).trajectories[0]
         except (FbilError, OSError):
             continue  # the demo file is not on this machine: no picture for this task
         rollouts = {m: by_task[task][m] for m in _order(set(by_task[task]))}
-        path = plot_imitation_panels(demo, rollouts, out_dir / f"trajectories_{task}.png", task)
-        pictures.append((task, path.name))
-    return pictures
+        out = out_dir / f"trajectories_{task}.png"
+        path = pictures.imitation(
+            ImitationPicture(demo.observation, demo.physics, rollouts, out, task)
+        )
+        if path is not None:
+            lines += [f"### {task}", "", f"![{task}]({path.name})", ""]
+    return [f"## {pictures.imitation_heading}", "", *lines] if lines else []
 
 
 def _zero_shot(rows: Sequence[dict[str, Any]]) -> dict[str, float]:
@@ -225,8 +237,6 @@ def write_report(results: str | Path | Sequence[str | Path], out_dir: str | Path
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     domain = summary["domain"]
-    paper_scores = PAPER_SCORES.get(domain, {})
-    paper_returns = PAPER_RETURNS.get(domain, {})
     commits = sorted({r.get("commit", "unknown") for r in rows})
     lines = [
         f"# fbil benchmark report: {domain}",
@@ -239,97 +249,110 @@ def write_report(results: str | Path | Sequence[str | Path], out_dir: str | Path
         "",
     ]
     for setting, methods in summary["settings"].items():
-        names = _order(set(methods))
-        slug = setting.replace(", ", "_").replace("=", "")
-        lines += [f"## Imitation score ({setting})", ""]
-        lines += [
-            "| method | principle | score (%) | ±95% | draws | paper (%) | time to policy (s) |"
-        ]
-        lines += ["|---|---|---|---|---|---|---|"]
-        for m in names:
-            r = methods[m]
-            lines.append(
-                f"| {m} | {METHODS[m].principle if m in METHODS else ''} | "
-                f"{_fmt(100 * r['score'])} | {_fmt(100 * r['ci95'])} | {r['draws']} | "
-                f"{_fmt(paper_scores.get(m, float('nan')))} | {r['seconds_median']:.3f} |"
-            )
-        fig = _score_figure(summary, setting, out_dir / f"scores_{slug}.png")
-        lines += ["", f"![scores]({fig.name})", ""]
-        tasks = sorted({t for r in methods.values() for t in r["tasks"]})
-        lines += [f"### Returns per task ({setting}): fbil (paper)", ""]
-        lines += ["| method | " + " | ".join(tasks) + " |", "|---" * (len(tasks) + 1) + "|"]
-        expert = {
-            t: next(r["tasks"][t]["expert_return"] for r in methods.values() if t in r["tasks"])
-            for t in tasks
-        }
-        paper_expert = paper_returns.get("expert", {})
-        lines.append(
-            "| expert | "
-            + " | ".join(
-                f"{expert[t]:.1f} ({_fmt(paper_expert.get(t, float('nan')))})" for t in tasks
-            )
-            + " |"
-        )
-        for m in names:
-            cells = []
-            for t in tasks:
-                ours = methods[m]["tasks"].get(t)
-                paper = paper_returns.get(m, {}).get(t, float("nan"))
-                cells.append(f"{_fmt(ours['return_mean']) if ours else '–'} ({_fmt(paper)})")
-            lines.append(f"| {m} | " + " | ".join(cells) + " |")
-        # Per-task scores: one task with a weak or negative-return expert can dominate
-        # the mean, and this table shows which.
-        lines += ["", f"### Imitation score per task ({setting}, %)", ""]
-        lines += ["| method | " + " | ".join(tasks) + " |", "|---" * (len(tasks) + 1) + "|"]
-        for m in names:
-            per = methods[m]["tasks"]
-            cells = [_fmt(100 * per[t]["score"]) if t in per else "–" for t in tasks]
-            lines.append(f"| {m} | " + " | ".join(cells) + " |")
-        lines.append("")
+        lines += _setting_section(summary, setting, methods, out_dir)
     # Time to policy, from the standard K=1 setting when there is one.
     main = next((s for s in summary["settings"] if s.startswith("standard, K=1")), None)
     main = main or next(iter(summary["settings"]), None)
     if main:
-        methods = summary["settings"][main]
-        fig = _time_figure(summary, main, out_dir / "time_to_policy.png")
-        lines += [
-            "## Time to policy",
-            "",
-            "Median wall time of `imitate` per job (benchmark workers share the "
-            "machine; `benchmarks/time_to_policy.py` measures on a quiet one).",
-            "",
-            "| method | fbil, CPU (s) | paper, GPU (Table 8) |",
-            "|---|---|---|",
-        ]
-        for m in _order(set(methods)):
-            lines.append(
-                f"| {m} | {methods[m]['seconds_median']:.3f} | {PAPER_TIMES.get(m, '–')} |"
-            )
-        lines += ["", f"![time to policy]({fig.name})", ""]
-        lines += _limits_section(rows, methods, domain, main)
-        base = {m: r["score"] for m, r in methods.items()}
-        others = [s for s in summary["settings"] if s != main]
-        if others:
-            lines += ["## Other settings against the standard one", ""]
-            lines += [
-                "| method | " + " | ".join([main, *others]) + " |",
-                "|---" * (len(others) + 2) + "|",
-            ]
-            for m in _order(set(base)):
-                cells = [_fmt(100 * base[m])] + [
-                    _fmt(100 * summary["settings"][s][m]["score"])
-                    if m in summary["settings"][s]
-                    else "–"
-                    for s in others
-                ]
-                lines.append(f"| {m} | " + " | ".join(cells) + " |")
-            lines.append("")
-    if domain == "point_mass_maze":
-        pictures = _trajectory_figures(rows, out_dir)
-        if pictures:
-            lines += ["## Demonstration (red) against each method's rollout (green)", ""]
-            for task, name in pictures:
-                lines += [f"### {task}", "", f"![{task}]({name})", ""]
+        lines += _time_section(summary, main, out_dir)
+        lines += _limits_section(rows, summary["settings"][main], domain, main)
+        lines += _other_settings(summary, main)
+    lines += _trajectory_figures(domain, rows, out_dir)
     report = out_dir / "report.md"
     atomic_write_text(report, "\n".join(lines) + "\n")
     return report
+
+
+def _setting_section(
+    summary: dict[str, Any], setting: str, methods: dict[str, Any], out_dir: Path
+) -> list[str]:
+    """Scores (table and figure), returns and per-task scores of one setting."""
+    names = _order(set(methods))
+    paper_scores = PAPER_SCORES.get(summary["domain"], {})
+    slug = setting.replace(", ", "_").replace("=", "")
+    lines = [f"## Imitation score ({setting})", ""]
+    lines += ["| method | principle | score (%) | ±95% | draws | paper (%) | time to policy (s) |"]
+    lines += ["|---|---|---|---|---|---|---|"]
+    for m in names:
+        r = methods[m]
+        lines.append(
+            f"| {m} | {METHODS[m].principle if m in METHODS else ''} | "
+            f"{_fmt(100 * r['score'])} | {_fmt(100 * r['ci95'])} | {r['draws']} | "
+            f"{_fmt(paper_scores.get(m, float('nan')))} | {r['seconds_median']:.3f} |"
+        )
+    fig = _score_figure(summary, setting, out_dir / f"scores_{slug}.png")
+    lines += ["", f"![scores]({fig.name})", ""]
+    tasks = sorted({t for r in methods.values() for t in r["tasks"]})
+    lines += _returns_table(summary["domain"], setting, methods, names, tasks)
+    # Per-task scores: one task with a weak or negative-return expert can dominate
+    # the mean, and this table shows which.
+    lines += ["", f"### Imitation score per task ({setting}, %)", ""]
+    lines += ["| method | " + " | ".join(tasks) + " |", "|---" * (len(tasks) + 1) + "|"]
+    for m in names:
+        per = methods[m]["tasks"]
+        cells = [_fmt(100 * per[t]["score"]) if t in per else "–" for t in tasks]
+        lines.append(f"| {m} | " + " | ".join(cells) + " |")
+    return [*lines, ""]
+
+
+def _returns_table(
+    domain: str, setting: str, methods: dict[str, Any], names: list[str], tasks: list[str]
+) -> list[str]:
+    paper_returns = PAPER_RETURNS.get(domain, {})
+    lines = [f"### Returns per task ({setting}): fbil (paper)", ""]
+    lines += ["| method | " + " | ".join(tasks) + " |", "|---" * (len(tasks) + 1) + "|"]
+    expert = {
+        t: next(r["tasks"][t]["expert_return"] for r in methods.values() if t in r["tasks"])
+        for t in tasks
+    }
+    paper_expert = paper_returns.get("expert", {})
+    lines.append(
+        "| expert | "
+        + " | ".join(f"{expert[t]:.1f} ({_fmt(paper_expert.get(t, float('nan')))})" for t in tasks)
+        + " |"
+    )
+    for m in names:
+        cells = []
+        for t in tasks:
+            ours = methods[m]["tasks"].get(t)
+            paper = paper_returns.get(m, {}).get(t, float("nan"))
+            cells.append(f"{_fmt(ours['return_mean']) if ours else '–'} ({_fmt(paper)})")
+        lines.append(f"| {m} | " + " | ".join(cells) + " |")
+    return lines
+
+
+def _time_section(summary: dict[str, Any], main: str, out_dir: Path) -> list[str]:
+    methods = summary["settings"][main]
+    fig = _time_figure(summary, main, out_dir / "time_to_policy.png")
+    lines = [
+        "## Time to policy",
+        "",
+        "Median wall time of `imitate` per job (benchmark workers share the "
+        "machine; `benchmarks/time_to_policy.py` measures on a quiet one).",
+        "",
+        "| method | fbil, CPU (s) | paper, GPU (Table 8) |",
+        "|---|---|---|",
+    ]
+    for m in _order(set(methods)):
+        lines.append(f"| {m} | {methods[m]['seconds_median']:.3f} | {PAPER_TIMES.get(m, '–')} |")
+    return [*lines, "", f"![time to policy]({fig.name})", ""]
+
+
+def _other_settings(summary: dict[str, Any], main: str) -> list[str]:
+    """Each method's score in every other setting next to the standard one."""
+    base = {m: r["score"] for m, r in summary["settings"][main].items()}
+    others = [s for s in summary["settings"] if s != main]
+    if not others:
+        return []
+    lines = ["## Other settings against the standard one", ""]
+    lines += [
+        "| method | " + " | ".join([main, *others]) + " |",
+        "|---" * (len(others) + 2) + "|",
+    ]
+    for m in _order(set(base)):
+        cells = [_fmt(100 * base[m])] + [
+            _fmt(100 * summary["settings"][s][m]["score"]) if m in summary["settings"][s] else "–"
+            for s in others
+        ]
+        lines.append(f"| {m} | " + " | ".join(cells) + " |")
+    return [*lines, ""]
