@@ -1,10 +1,10 @@
-"""TD3 gradient steps/s at the expert size: the default (compiled) path against eager.
+"""TD3 gradient steps/s at the expert size: the bf16 path against plain fp32, same run.
 
 Times `TD3.update` (critic step every call; actor step and targets every second call) on
 random batches of the walker's sizes (obs 24, action 6; hidden 256, batch 256 as
-`fbil expert`), with the losses compiled by torch.compile (what `fbil expert` does for runs
-of >= 5 000 steps) and eagerly, in alternating slices of ~1 s in the same run; `speedup`
-is their ratio. Both paths run fp32.
+`fbil expert`) with `precision=bf16` (hidden layers under bf16 autocast, last layers fp32)
+and with fp32, in alternating slices of ~1 s; `speedup` is the ratio of wall-clock rates,
+`cpu_speedup` that of CPU time per step (robust to other processes' load).
 
     python benchmarks/td3_update.py [--threads 1] [--seconds 20] [--json]
 """
@@ -22,9 +22,10 @@ from fbil.agents.td3 import TD3, TD3Config
 from fbil.envs import get_domain
 
 
-def updater(domain: str, fast: bool) -> tuple[TD3, object]:
-    spec, cfg = get_domain(domain), TD3Config(nstep=3)
-    agent = TD3(spec.obs_dim, spec.act_dim, cfg, seed=0, compile=fast)
+def updater(domain: str, precision: str) -> tuple[TD3, object]:
+    spec = get_domain(domain)
+    cfg = TD3Config(nstep=3, precision=precision)  # type: ignore[arg-type]
+    agent = TD3(spec.obs_dim, spec.act_dim, cfg, seed=0)
     gen = torch.Generator().manual_seed(0)
     n = cfg.batch_size
 
@@ -36,7 +37,7 @@ def updater(domain: str, fast: bool) -> tuple[TD3, object]:
         agent.update(obs, act, rew, nxt, torch.full((n,), 0.99**2))
 
     t0 = time.perf_counter()
-    for _ in range(4):  # compilation of both losses
+    for _ in range(4):  # allocations, first calls
         step()
     agent.warmup_seconds = time.perf_counter() - t0  # type: ignore[attr-defined]
     return agent, step
@@ -50,24 +51,27 @@ def main() -> None:
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args()
     torch.set_num_threads(args.threads)
-    fast, fast_step = updater(args.domain, True)
-    _, eager_step = updater(args.domain, False)
-    rates = interleaved_rates({"default": fast_step, "eager": eager_step}, args.seconds)
+    _, bf16_step = updater(args.domain, "bf16")
+    _, fp32_step = updater(args.domain, "fp32")
+    rates = interleaved_rates({"bf16": bf16_step, "fp32": fp32_step}, args.seconds)
+    bf16, fp32 = rates["bf16"], rates["fp32"]
     result = {
         "threads": torch.get_num_threads(),
         "domain": args.domain,
-        "default_steps_per_s": round(rates["default"], 1),
-        "eager_steps_per_s": round(rates["eager"], 1),
-        "speedup": round(rates["default"] / rates["eager"], 2),
-        "compile_seconds": round(fast.warmup_seconds, 1),  # type: ignore[attr-defined]
+        "bf16_steps_per_s": round(bf16["steps_per_s"], 1),
+        "fp32_steps_per_s": round(fp32["steps_per_s"], 1),
+        "speedup": round(bf16["steps_per_s"] / fp32["steps_per_s"], 2),
+        "bf16_cpu_ms_per_step": round(bf16["cpu_ms"], 2),
+        "fp32_cpu_ms_per_step": round(fp32["cpu_ms"], 2),
+        "cpu_speedup": round(fp32["cpu_ms"] / bf16["cpu_ms"], 2),
     }
     if args.json:
         print(json.dumps(result))
     else:
         print(
-            f"TD3 update ({args.domain}, {result['threads']} threads): default "
-            f"{result['default_steps_per_s']} steps/s, eager {result['eager_steps_per_s']}, "
-            f"speedup {result['speedup']}x (compile {result['compile_seconds']} s)"
+            f"TD3 update ({args.domain}, {result['threads']} threads): bf16 "
+            f"{result['bf16_steps_per_s']} steps/s, fp32 {result['fp32_steps_per_s']}, "
+            f"speedup {result['speedup']}x (CPU time: {result['cpu_speedup']}x)"
         )
 
 

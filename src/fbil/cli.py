@@ -265,39 +265,49 @@ def _cmd_zero_shot(args: argparse.Namespace) -> int:
     return 0
 
 
-def _cmd_imitate(args: argparse.Namespace) -> int:
-    from fbil.fb.model import FBModel
-    from fbil.imitation import MAIN_METHODS, METHODS, Demos, imitate
+def _fit_context(args: argparse.Namespace, names: Sequence[str], demos: Any) -> Any:
+    """What the named methods need besides the demos: the FB model (read only when one of
+    them imitates through it), the dataset of --data (only when one trains on it), the
+    budget, seed and threads."""
+    from fbil.imitators import FitContext, get_imitator
 
-    model = FBModel.load(args.model)
+    needed = [get_imitator(n) for n in names]
+    model = dataset = None
+    if any(i.needs_model for i in needed):
+        from fbil.fb.model import FBModel
+
+        model = FBModel.load(args.model)
+    if args.data is not None and any(i.needs_dataset for i in needed):
+        from fbil.data import load_dataset
+
+        dataset = load_dataset(args.data, domain=demos.metadata.get("domain") or None)
+    return FitContext(model, dataset, args.budget, getattr(args, "seed", 0), args.threads)
+
+
+def _cmd_imitate(args: argparse.Namespace) -> int:
+    from fbil.evaluation.evaluate import fit_all
+    from fbil.imitation import Demos
+    from fbil.imitators import family_of, principle_of, resolve
+
     demos = Demos.load(args.demos)
     if args.k is not None:
         demos = demos.select(range(min(args.k, len(demos))))
-    methods = MAIN_METHODS if args.methods == "all" else args.methods.split(",")
-    for m in methods:
-        if m not in METHODS:
-            raise FbilError(f"unknown method {m!r}; valid methods: {', '.join(METHODS)}, all")
-    results: dict[str, dict[str, object]] = {}
-    policies = {}
-    for m in methods:
-        if METHODS[m].needs_actions and not demos.has_actions:
-            results[m] = {"skipped": "needs expert actions; the demonstrations have none"}
-            continue
-        policy = imitate(model, demos, m)
-        policies[m] = policy
-        z = policy.z
-        results[m] = {
-            "seconds": round(policy.seconds, 4),
-            "z_norm": float(z.norm(dim=-1).mean()),
-            "z_head": [round(float(v), 4) for v in (z[0] if policy.is_schedule else z)[:4]],
-            "schedule_steps": int(z.shape[0]) if policy.is_schedule else None,
-            **{k: v for k, v in policy.info.items() if isinstance(v, int | float)},
+    selection = resolve(args.methods)
+    context = _fit_context(args, selection.names, demos)
+    fitted, skipped = fit_all(selection.names, demos, context, selection.group)
+    results: dict[str, dict[str, Any]] = {m: {"skipped": why} for m, why in skipped.items()}
+    for f in fitted:
+        results[f.name] = {
+            "family": family_of(f.name),
+            "seconds": round(f.seconds, 4),
+            **f.policy.describe(),
         }
+    results = {m: results[m] for m in selection.names}  # in the order asked for
     if args.out:
         out = Path(args.out)
         out.mkdir(parents=True, exist_ok=True)
-        for m, policy in policies.items():
-            policy.save(out / f"{m}.json")
+        for f in fitted:
+            f.policy.save(out / f"{f.name}{f.policy.suffix}")
     if args.json:
         print(json.dumps({"methods": results}))
         return 0
@@ -305,14 +315,16 @@ def _cmd_imitate(args: argparse.Namespace) -> int:
     print(f"{'method':<10}{'principle':<26}{'seconds':>9}  z (first entries)      |z|")
     for m, r in results.items():
         if "skipped" in r:
-            print(f"{m:<10}{METHODS[m].principle:<26}  skipped: {r['skipped']}")
-            continue
-        head = " ".join(f"{v:+.2f}" for v in r["z_head"])  # type: ignore[attr-defined]
-        print(
-            f"{m:<10}{METHODS[m].principle:<26}{r['seconds']:>9.3f}  {head:<22} {r['z_norm']:.2f}"
-        )
+            print(f"{m:<10}{principle_of(m):<26}  skipped: {r['skipped']}")
+        elif "z_head" in r:
+            head = " ".join(f"{v:+.2f}" for v in r["z_head"])
+            print(f"{m:<10}{principle_of(m):<26}{r['seconds']:>9.3f}  {head:<22} {r['z_norm']:.2f}")
+        else:
+            about = ", ".join(f"{k} {v}" for k, v in r.items() if k not in ("seconds", "family"))
+            print(f"{m:<10}{principle_of(m):<26}{r['seconds']:>9.3f}  {about}")
     if args.out:
-        print(f"policies saved in {args.out}/<method>.json")
+        suffixes = "|".join(sorted({f.policy.suffix for f in fitted}))
+        print(f"policies saved in {args.out}/<method>{suffixes}")
     return 0
 
 
@@ -377,19 +389,21 @@ def get_domain_tasks(domain: str) -> list[str]:
 def _cmd_evaluate(args: argparse.Namespace) -> int:
     from fbil.checkpoint import atomic_write_text
     from fbil.evaluation.evaluate import evaluate
-    from fbil.fb.model import FBModel
     from fbil.imitation.demos import Demos
+    from fbil.imitators import resolve
 
-    model = FBModel.load(args.model)
     demos = Demos.load(args.demos)
+    context = _fit_context(args, resolve(args.methods).names, demos)
     out = evaluate(
-        model,
+        context.model,
         demos,
         args.methods,
         k=args.k,
         draw=args.draw,
         episodes=args.episodes,
         seed=args.seed,
+        dataset=context.dataset,
+        budget=args.budget,
     )
     methods = {m: r.as_dict() for m, r in out["results"].items()}
     methods.update({m: {"skipped": why} for m, why in out["skipped"].items()})
@@ -441,6 +455,8 @@ def _cmd_benchmark(args: argparse.Namespace) -> int:
         args.episodes,
         seed=args.seed,
         demo_set=args.demo_set,
+        data=args.data,
+        budget=args.budget,
     )
     before = len(read_results(args.out))
     bar = tqdm(
@@ -610,14 +626,11 @@ def _add_datasets(sub: Any) -> None:
 
 
 def _add_compile(p: argparse.ArgumentParser) -> None:
-    from fbil.compile import AUTO_MIN_STEPS, COMPILE_MODES
-
     p.add_argument(
         "--compile",
-        default="auto",
-        choices=COMPILE_MODES,
-        help="torch.compile the FB losses (same training, faster after ~1 min of compiling; "
-        f"benchmarks/fb_update.py); auto: on for runs of >= {AUTO_MIN_STEPS} steps",
+        action="store_true",
+        help="torch.compile the FB losses (same training; ~1 min to compile; measured no "
+        "faster at the cpu preset sizes on 2 cores, see docs/speed.md)",
     )
 
 
@@ -657,14 +670,31 @@ def _add_zero_shot(sub: Any) -> None:
     p.add_argument("--episodes", type=int, default=20, help="episodes per task")
 
 
+def _add_training_inputs(p: argparse.ArgumentParser) -> None:
+    """--data and --budget, for the methods that train (the offline-IL baselines)."""
+    p.add_argument(
+        "--data",
+        default=None,
+        help="unsupervised dataset folder, for methods that train on it (td3il, oril*)",
+    )
+    p.add_argument(
+        "--budget",
+        default="cpu",
+        help="training budget of methods that train: cpu, or smoke (seconds, for tests)",
+    )
+
+
 def _add_imitate(sub: Any) -> None:
     about = "imitation policies from demonstrations"
-    p = _command(sub, "imitate", _cmd_imitate, about, threads=True, outputs=_OUT_FOLDER)
-    p.add_argument("model", help="FB model folder")
+    p = _command(sub, "imitate", _cmd_imitate, about, threads=True, seed=True, outputs=_OUT_FOLDER)
+    p.add_argument("model", help="FB model folder (read only for FB-IL methods)")
     p.add_argument("demos", help="demo file (.npz)")
     p.add_argument("--methods", default="all", help="all, a method or a comma list")
     p.add_argument("--k", type=int, default=None, help="use the first K demos (default: all)")
-    p.add_argument("--out", default=None, help="folder for the policies (<method>.json)")
+    _add_training_inputs(p)
+    p.add_argument(
+        "--out", default=None, help="folder for the policies (<method>.json or .safetensors)"
+    )
 
 
 def _add_expert(sub: Any) -> None:
@@ -722,7 +752,7 @@ def _add_demos(sub: Any) -> None:
 def _add_evaluate(sub: Any) -> None:
     about = "imitate from K demos and score each method"
     p = _command(sub, "evaluate", _cmd_evaluate, about, threads=True, seed=True, outputs=_OUT_FILE)
-    p.add_argument("model")
+    p.add_argument("model", help="FB model folder (read only for FB-IL methods)")
     p.add_argument("demos")
     p.add_argument("--methods", default="all", help="all, a method or a comma list")
     p.add_argument("--k", type=int, default=1, help="demonstrations per imitation")
@@ -730,6 +760,7 @@ def _add_evaluate(sub: Any) -> None:
         "--draw", type=int, default=0, help="which of the file's groups of K demos to use"
     )
     p.add_argument("--episodes", type=int, default=10, help="evaluation episodes per method")
+    _add_training_inputs(p)
     p.add_argument("--out", default=None, help="also write the JSON object to this file")
 
 
@@ -746,7 +777,7 @@ def _add_benchmark(sub: Any) -> None:
         outputs=_OUT_FILE,
     )
     p.add_argument("--domain", required=True, help="the demos' domain")
-    p.add_argument("--model", required=True, help="FB model folder")
+    p.add_argument("--model", default=None, help="FB model folder (for FB-IL methods)")
     p.add_argument("--demos", required=True, help="folder of <task>.npz demo files")
     p.add_argument("--methods", default="all", help="all, a method or a comma list")
     p.add_argument("--tasks", default="all", help="all, a task or a comma list")
@@ -754,6 +785,7 @@ def _add_benchmark(sub: Any) -> None:
     p.add_argument("--draws", type=int, default=5, help="demo draws (groups of K) per task")
     p.add_argument("--episodes", type=int, default=20, help="evaluation episodes per job")
     p.add_argument("--demo-set", default="standard", help="standard or shifted demos")
+    _add_training_inputs(p)
     p.add_argument("--out", required=True, help="results file (.jsonl), appended")
     p.add_argument("--workers", type=int, default=1, help="jobs run in parallel")
     p.add_argument("--backend", default="local", help="local (process pool) or ray")

@@ -1,7 +1,9 @@
 """Optional torch.compile of a training step's loss functions, with a fallback to eager.
 
-At CPU sizes an update is bound by many small kernels (layer norms, tanh, elementwise
-chains, Python), not by its matmuls; inductor fuses them. Compilation changes no saved
+Inductor fuses the elementwise chains (layer norms, tanh) between the matmuls. Measured on
+this project's 2-core CPU machines it does not pay at the `cpu` preset sizes (the same CPU
+time per FB update, 34 ms at the maze size, with it and without it: docs/speed.md), so it
+is off by default; it is kept for larger models and other hardware. Compilation changes no saved
 state: models and checkpoints are the same either way, and a run trained compiled resumes
 eagerly (and back). Where compilation is unavailable or fails (no C++ compiler, an
 unsupported op), the step says so in one line on stderr and runs eagerly from then on.
@@ -12,22 +14,9 @@ from __future__ import annotations
 import sys
 import warnings
 from collections.abc import Callable
-from typing import Any, Literal, TypeVar
-
-from fbil.errors import FbilError
+from typing import Any, TypeVar
 
 F = TypeVar("F", bound=Callable[..., Any])
-CompileMode = Literal["auto", "on", "off"]
-COMPILE_MODES = ("auto", "on", "off")
-# Compiling costs ~0.5-1.5 min on 2 cores; "auto" compiles runs long enough to repay it.
-AUTO_MIN_STEPS = 5_000
-
-
-def use_compile(mode: str, steps: int) -> bool:
-    """Whether a run of `steps` updates compiles: on, off, or auto (>= AUTO_MIN_STEPS)."""
-    if mode not in COMPILE_MODES:
-        raise FbilError(f"unknown compile mode {mode!r}; valid: {', '.join(COMPILE_MODES)}")
-    return mode == "on" or (mode == "auto" and steps >= AUTO_MIN_STEPS)
 
 
 class _Compiled:

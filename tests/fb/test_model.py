@@ -159,3 +159,14 @@ def test_standardised_inputs_use_the_data_statistics_and_survive_save_load(
     shifted.set_obs_stats(obs + 1.0)
     torch.testing.assert_close(shifted.backward(x + 1.0), back.backward(x), rtol=1e-4, atol=1e-4)
     torch.testing.assert_close(shifted.act(x + 1.0, z), back.act(x, z), rtol=1e-4, atol=1e-4)
+
+
+def test_a_model_without_a_recorded_discount_is_refused_by_imitation() -> None:
+    from fbil.errors import FbilError
+    from fbil.fb.config import preset
+    from fbil.fb.model import FBModel
+
+    model = FBModel(preset("point_mass_maze", "smoke")[0])
+    with pytest.raises(FbilError, match="records no training discount"):
+        _ = model.gamma
+    assert FBModel(model.config, {"train_config": {"gamma": 0.97}}).gamma == 0.97

@@ -23,7 +23,7 @@ GRADIENT_METHODS = [name for name, m in METHODS.items() if m.gradient]
 def model() -> FBModel:
     cfg, _ = preset("point_mass_maze", "smoke")
     torch.manual_seed(0)
-    m = FBModel(cfg).frozen()
+    m = FBModel(cfg, metadata={"train_config": {"gamma": 0.98}}).frozen()
     g = torch.Generator().manual_seed(0)
     with torch.no_grad():  # Cov B of the model over random states, as training would set it
         b = m.backward(torch.rand(2000, cfg.obs_dim, generator=g) - 0.5)
@@ -57,7 +57,7 @@ def test_fb_model_log_prob_is_a_gaussian_around_the_actor(model: FBModel) -> Non
 
     z_e = model.sample_z(1, generator=g)[0]
     demo = from_arrays([obs.numpy()], [model.act(obs[:-1], z_e).numpy()])
-    fb: Any = model  # an FBLike (mypy: the protocol's z_dim is settable, FBModel's is not)
+    fb: Any = model
     batch = prepare(fb, demo, 0.98)
     assert float(bc.bc_loss(fb, batch, z_e)) == pytest.approx(0.0, abs=1e-6)
     assert all(float(bc.bc_loss(fb, batch, z)) > 1e-3 for z in model.sample_z(4, g))
@@ -69,6 +69,7 @@ class Float64Model:
     def __init__(self, model: FBModel) -> None:
         self.m = copy.deepcopy(model).double()
         self.z_dim, self.cov_b, self.metadata = model.z_dim, self.m.cov_b, model.metadata
+        self.gamma = model.gamma
 
     def project_z(self, z: Any) -> torch.Tensor:
         return self.m.project_z(torch.as_tensor(z).double())

@@ -46,6 +46,8 @@ class Job:
     k: int
     episodes: int
     seed: int
+    data: str | None = None  # the unsupervised dataset, for methods that train on it
+    budget: str | None = None  # the budget, for methods that train
 
     @property
     def key(self) -> tuple[Any, ...]:
@@ -57,7 +59,7 @@ def demo_file(demos_dir: Path, task: str, demo_set: str) -> Path:
 
 
 def make_jobs(
-    model: str | Path,
+    model: str | Path | None,
     demos_dir: str | Path,
     domain: str,
     tasks: Sequence[str],
@@ -67,10 +69,24 @@ def make_jobs(
     episodes: int,
     seed: int = 0,
     demo_set: str = "standard",
+    data: str | Path | None = None,
+    budget: str = "cpu",
 ) -> list[Job]:
-    """The grid, in a fixed order (tasks, then draws, then methods)."""
+    """The grid, in a fixed order (tasks, then draws, then methods). `data` and `budget`
+    go to the jobs of the methods that use them (a method that needs a dataset without
+    `data` is refused here, before any job runs)."""
+    from fbil.imitators import FitContext, get_imitator
+
     if draws < 1 or k < 1 or episodes < 1:
         raise FbilError("--draws, --k and --episodes must all be >= 1")
+    inputs = {}
+    for method in methods:
+        imitator = get_imitator(method)
+        imitator.require(FitContext(model, data, budget))
+        inputs[method] = (
+            str(data) if imitator.needs_dataset else None,
+            budget if imitator.budgets else None,
+        )
     demos_dir = Path(demos_dir)
     jobs = []
     for task in tasks:
@@ -84,7 +100,7 @@ def make_jobs(
             for method in methods:
                 jobs.append(
                     Job(
-                        str(model),
+                        "" if model is None else str(model),
                         str(path),
                         domain,
                         task,
@@ -94,6 +110,7 @@ def make_jobs(
                         k,
                         episodes,
                         seed,
+                        *inputs[method],
                     )
                 )
     return jobs
@@ -153,17 +170,32 @@ def _demos(path: str) -> Any:
     return Demos.load(path)
 
 
+@lru_cache(maxsize=2)
+def _dataset(path: str) -> Any:
+    from fbil.data import load_dataset
+
+    return load_dataset(path)
+
+
 def run_job(job: Job, commit: str = "unknown") -> dict[str, Any]:
     """Imitate and evaluate one grid cell; the result is one JSON-able row."""
     from fbil.evaluation.evaluate import evaluate, expert_return
+    from fbil.imitators import FitContext, get_imitator
 
     started = time.perf_counter()
+    imitator = get_imitator(job.method)
     # Scores divide by the expert's return from the *standard* start, where evaluation
     # starts, also for demos recorded elsewhere (paper App. E.5).
     standard = demo_file(Path(job.demos).parent, job.task, "standard")
     expert = expert_return(_demos(str(standard))) if job.demo_set != "standard" else None
+    context = FitContext(
+        _model(job.model) if imitator.needs_model else None,
+        _dataset(job.data) if job.data else None,
+        job.budget or "cpu",
+        job.seed,
+    )
     out = evaluate(
-        _model(job.model),
+        context.model,
         _demos(job.demos),
         [job.method],
         k=job.k,
@@ -171,33 +203,38 @@ def run_job(job: Job, commit: str = "unknown") -> dict[str, Any]:
         episodes=job.episodes,
         seed=job.seed,
         expert=expert,
+        dataset=context.dataset,
+        budget=context.budget,
+        skip_unfit=True,
     )
     row: dict[str, Any] = asdict(job)
-    from fbil.envs import get_domain
-    from fbil.imitation.core import OptimiserConfig
-
     row.update(expert_return=out["expert_return"], commit=commit, fbil_version=__version__)
-    row["optimiser"] = asdict(OptimiserConfig())
+    row.update(family=imitator.family, **imitator.settings(context))
     if job.method in out["skipped"]:
         row.update(skipped=out["skipped"][job.method])
     else:
-        r = out["results"][job.method]
-        row.update(
-            principle=r.principle,
-            return_mean=r.return_mean,
-            return_std=r.return_std,
-            returns=r.returns,
-            score=r.score,
-            seconds=r.seconds,
-        )
-        pictures = get_domain(job.domain).hooks.pictures
-        kept = pictures.keep(r.trajectory) if pictures is not None and job.draw == 0 else None
-        if kept is not None:
-            # What the domain's report picture needs of the first evaluation episode, per
-            # (task, method): the maze's x-y path (every 2nd step), locomotion's frames.
-            row["trajectory"] = kept
+        _add_result(row, job, out["results"][job.method])
     row["wall_seconds"] = round(time.perf_counter() - started, 3)
     return row
+
+
+def _add_result(row: dict[str, Any], job: Job, r: Any) -> None:
+    from fbil.envs import get_domain
+
+    row.update(
+        principle=r.principle,
+        return_mean=r.return_mean,
+        return_std=r.return_std,
+        returns=r.returns,
+        score=r.score,
+        seconds=r.seconds,
+    )
+    pictures = get_domain(job.domain).hooks.pictures
+    kept = pictures.keep(r.trajectory) if pictures is not None and job.draw == 0 else None
+    if kept is not None:
+        # What the domain's report picture needs of the first evaluation episode, per
+        # (task, method): the maze's x-y path (every 2nd step), locomotion's frames.
+        row["trajectory"] = kept
 
 
 def _init_worker(threads: int) -> None:

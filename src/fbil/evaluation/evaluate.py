@@ -1,9 +1,10 @@
 """The paper's protocol for one task: imitate from K demonstrations, roll the imitation
 policies out from the standard initial distribution, score return / expert return.
 
-All methods of one call share one batched rollout (one environment per method and
-episode; each environment plays its own z), so adding methods costs policy-call rows,
-not Python loops."""
+Methods are imitators of any family, by name (`fbil.imitators`). All methods of one call
+share one batched rollout (one environment per method and episode; FB-IL policies of one
+model act in one call, each environment with its own z), so adding methods costs
+policy-call rows, not Python loops."""
 
 from __future__ import annotations
 
@@ -12,31 +13,29 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-import torch
 
 from fbil.envs.rollout import BatchedEnv, Episodes
 from fbil.errors import FbilError
 from fbil.fb.model import model_domain
-from fbil.imitation.api import imitate
-from fbil.imitation.core import ImitationPolicy, OptimiserConfig
+from fbil.imitation.core import OptimiserConfig
 from fbil.imitation.demos import Demos
-from fbil.imitation.methods import MAIN_METHODS, METHODS
+from fbil.imitators import (
+    FitContext,
+    Fitted,
+    Policy,
+    family_of,
+    get_imitator,
+    principle_of,
+    resolve,
+)
 
 EVAL_SEED_OFFSET = 500_000  # evaluation episodes never reuse the demos' seeds (200_000 + i)
 
 
 def resolve_methods(spec: str | Sequence[str]) -> list[str]:
-    """'all' (the paper's eight), a comma list, or a list -> validated method names."""
-    names = spec.split(",") if isinstance(spec, str) else list(spec)
-    names = [n.strip().lower() for n in names if n.strip()]
-    if names == ["all"]:
-        return list(MAIN_METHODS)
-    unknown = [n for n in names if n not in METHODS]
-    if unknown or not names:
-        raise FbilError(
-            f"unknown method {', '.join(unknown) or '(none)'}; valid: {', '.join(METHODS)}, all"
-        )
-    return names
+    """'all' (the paper's eight FB-IL methods), a family, a comma list or a list ->
+    validated method names."""
+    return resolve(spec).names
 
 
 def expert_return(demos: Demos) -> float:
@@ -61,22 +60,36 @@ def demo_draw(demos: Demos, k: int, draw: int) -> Demos:
 
 
 class MultiPolicy:
-    """Several imitation policies played side by side: rows [i*E, (i+1)*E) use policy i."""
+    """Several imitation policies played side by side: rows [i*E, (i+1)*E) use policy i.
+    Neighbouring policies with the same `together_key` (FB-IL: one model) act in one call
+    of their class's `act_together`; any other policy acts on its own rows."""
 
-    def __init__(self, policies: Sequence[ImitationPolicy], episodes: int) -> None:
-        self.policies, self.episodes = list(policies), episodes
-        self.model = policies[0].model
+    def __init__(self, policies: Sequence[Policy], episodes: int) -> None:
+        self.episodes = episodes
+        self.runs: list[list[Policy]] = []
+        for p in policies:
+            key = getattr(p, "together_key", None)
+            last = self.runs[-1][-1] if self.runs else None
+            if key is not None and key == getattr(last, "together_key", None):
+                self.runs[-1].append(p)
+            else:
+                self.runs.append([p])
 
-    @torch.no_grad()
     def __call__(self, obs: np.ndarray, step: int) -> np.ndarray:
-        z = torch.cat(
-            [p.z_at(step).reshape(1, -1).expand(self.episodes, -1) for p in self.policies]
-        )
-        return self.model.act(torch.as_tensor(obs), z).numpy()
+        parts, row = [], 0
+        for run in self.runs:
+            rows = obs[row : row + len(run) * self.episodes]
+            together = getattr(type(run[0]), "act_together", None)
+            if together is not None:
+                parts.append(together(run, self.episodes, rows, step))
+            else:
+                parts.append(run[0].act(rows, step))
+            row += len(rows)
+        return parts[0] if len(parts) == 1 else np.concatenate(parts)
 
 
 def rollout_policies(
-    policies: Sequence[ImitationPolicy],
+    policies: Sequence[Policy],
     domain: str,
     task: str,
     episodes: int,
@@ -100,9 +113,11 @@ class MethodResult:
     seconds: float
     returns: list[float]
     trajectory: np.ndarray  # observations of the first evaluation episode (T+1, obs_dim)
+    family: str = "fb-il"
 
     def as_dict(self) -> dict[str, Any]:
         return {
+            "family": self.family,
             "principle": self.principle,
             "return_mean": self.return_mean,
             "return_std": self.return_std,
@@ -112,7 +127,7 @@ class MethodResult:
 
 
 def demos_task(demos: Demos, model: Any) -> tuple[str, str]:
-    """(domain, task) of the demos, checked against the model's domain."""
+    """(domain, task) of the demos, checked against the model's domain (if a model)."""
     domain, task = demos.metadata.get("domain"), demos.metadata.get("task")
     if not domain or not task:
         raise FbilError(
@@ -125,6 +140,24 @@ def demos_task(demos: Demos, model: Any) -> tuple[str, str]:
     return str(domain), str(task)
 
 
+def fit_all(
+    names: Sequence[str], demos: Demos, context: FitContext, skip_unfit: bool
+) -> tuple[list[Fitted], dict[str, str]]:
+    """Every method fitted to `demos`, after checking all of them (a mistake stops the
+    call before any work). With `skip_unfit`, a method that needs actions the demos lack
+    is skipped with its reason instead of refused."""
+    skipped: dict[str, str] = {}
+    chosen = []
+    for name in names:
+        imitator = get_imitator(name)
+        if skip_unfit and imitator.needs_actions and not demos.has_actions:
+            skipped[name] = "needs expert actions; the demonstrations have none"
+            continue
+        imitator.check(demos, context)
+        chosen.append(imitator)
+    return [i.fit(demos, context) for i in chosen], skipped
+
+
 def evaluate(
     model: Any,
     demos: Demos,
@@ -135,36 +168,38 @@ def evaluate(
     seed: int = 0,
     optimiser: OptimiserConfig | None = None,
     expert: float | None = None,
+    dataset: Any = None,
+    budget: str = "cpu",
+    skip_unfit: bool = False,
 ) -> dict[str, Any]:
     """Imitate draw `draw` of K demos with each method, evaluate, score against the expert
-    (`expert`: its mean return from the standard start; default: the demos' own record)."""
-    names = resolve_methods(methods)
+    (`expert`: its mean return from the standard start; default: the demos' own record).
+    `model`: the FB model (FB-IL methods), `dataset`: the unsupervised dataset and
+    `budget` (methods that train). Methods the demos cannot serve (no actions) are skipped
+    when named by a group ('all', a family) or with `skip_unfit`, else refused."""
+    selection = resolve(methods)
     domain, task = demos_task(demos, model)
     expert = expert_return(demos) if expert is None else float(expert)
     if expert <= 0:
         raise FbilError(f"the expert's mean return is {expert}; scores need a positive one")
     chosen = demo_draw(demos, k, draw)
-    skipped: dict[str, str] = {}
-    policies: list[ImitationPolicy] = []
-    for name in names:
-        if METHODS[name].needs_actions and not chosen.has_actions:
-            skipped[name] = "needs expert actions; the demonstrations have none"
-            continue
-        policies.append(imitate(model, chosen, name, optimiser=optimiser))
+    context = FitContext(model, dataset, budget, seed, optimiser=optimiser)
+    fitted, skipped = fit_all(selection.names, chosen, context, skip_unfit or selection.group)
     results: dict[str, MethodResult] = {}
-    if policies:
-        ep = rollout_policies(policies, domain, task, episodes, seed)
-        for i, p in enumerate(policies):
+    if fitted:
+        ep = rollout_policies([f.policy for f in fitted], domain, task, episodes, seed)
+        for i, f in enumerate(fitted):
             r = ep.returns[i * episodes : (i + 1) * episodes]
-            results[p.method] = MethodResult(
-                p.method,
-                METHODS[p.method].principle,
+            results[f.name] = MethodResult(
+                f.name,
+                principle_of(f.name),
                 float(r.mean()),
                 float(r.std()),
                 float(r.mean() / expert),
-                p.seconds,
+                f.seconds,
                 [float(x) for x in r],
                 ep.observation[i * episodes],
+                family_of(f.name),
             )
     return {
         "domain": domain,

@@ -21,11 +21,13 @@ from fbil.checkpoint import atomic_write_text
 from fbil.errors import FbilError
 from fbil.evaluation.benchmark import read_results
 from fbil.evaluation.paper import PAPER_RETURNS, PAPER_SCORES, PAPER_TIMES
-from fbil.imitation.methods import MAIN_METHODS, METHODS
+from fbil.imitators import imitators, principle_of
 
 
 def _order(methods: set[str]) -> list[str]:
-    known = [m for m in MAIN_METHODS if m in methods]
+    """Registry order (FB-IL's main methods, the others, then the baselines), then any
+    name no longer registered."""
+    known = [m for m in imitators() if m in methods]
     return known + sorted(methods - set(known))
 
 
@@ -98,9 +100,7 @@ def _score_figure(summary: dict[str, Any], setting: str, out: Path) -> Path:
     err = [100 * (methods[m]["ci95"] if not math.isnan(methods[m]["ci95"]) else 0) for m in names]
     ax.bar(x - 0.2, ours, 0.4, yerr=err, capsize=2, label="fbil (cpu model)", color="tab:blue")
     ax.bar(x + 0.2, [paper.get(m, 0) for m in names], 0.4, label="paper", color="tab:gray")
-    ax.set_xticks(
-        x, [f"{m}\n{METHODS[m].principle if m in METHODS else ''}" for m in names], fontsize=6
-    )
+    ax.set_xticks(x, [f"{m}\n{principle_of(m)}" for m in names], fontsize=6)
     ax.set_ylabel("imitation score (%)")
     ax.set_title(f"{summary['domain']}: {setting}", fontsize=9)
     ax.legend(fontsize=7)
@@ -276,7 +276,7 @@ def _setting_section(
     for m in names:
         r = methods[m]
         lines.append(
-            f"| {m} | {METHODS[m].principle if m in METHODS else ''} | "
+            f"| {m} | {principle_of(m)} | "
             f"{_fmt(100 * r['score'])} | {_fmt(100 * r['ci95'])} | {r['draws']} | "
             f"{_fmt(paper_scores.get(m, float('nan')))} | {r['seconds_median']:.3f} |"
         )

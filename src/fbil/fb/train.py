@@ -32,7 +32,7 @@ from torch import nn
 from tqdm.auto import tqdm
 
 from fbil.checkpoint import load_state, save_state
-from fbil.compile import CompileMode, compiled, use_compile
+from fbil.compile import compiled
 from fbil.config import config_from_dict
 from fbil.csvlog import last_wall_seconds, truncate_log
 from fbil.data import Dataset
@@ -97,7 +97,7 @@ class FBTrainer:
         train_config: FBTrainConfig,
         dataset: Dataset,
         device: str = "cpu",
-        compile: CompileMode = "auto",
+        compile: bool = False,
     ) -> None:
         self.mcfg, self.cfg, self.dataset = model_config, train_config, dataset
         self.device = torch.device(device)
@@ -131,7 +131,7 @@ class FBTrainer:
         # update is bound by many small kernels at CPU sizes, which inductor fuses.
         self._fb_losses = self.fb_losses
         self._actor_loss = self.actor_loss
-        if use_compile(compile, train_config.steps):
+        if compile:
             self._fb_losses = compiled(self.fb_losses)
             self._actor_loss = compiled(self.actor_loss)
         self.sqrt_d = math.sqrt(model_config.z_dim)

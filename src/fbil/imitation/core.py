@@ -13,7 +13,7 @@ from __future__ import annotations
 import json
 import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Protocol
@@ -208,6 +208,34 @@ class ImitationPolicy:
         return self.model.act(o, z).numpy()
 
     __call__ = act
+
+    suffix = ".json"  # the file type of `save`
+
+    def describe(self) -> dict[str, Any]:
+        """z's norm and first entries (of its first step, for a schedule), and the numbers
+        of the method's info."""
+        z = self.z
+        return {
+            "z_norm": float(z.norm(dim=-1).mean()),
+            "z_head": [round(float(v), 4) for v in (z[0] if self.is_schedule else z)[:4]],
+            "schedule_steps": int(z.shape[0]) if self.is_schedule else None,
+            **{k: v for k, v in self.info.items() if isinstance(v, int | float)},
+        }
+
+    @property
+    def together_key(self) -> tuple[str, int]:
+        """Policies with equal keys can act in one call (`act_together`): one model."""
+        return ("fb", id(self.model))
+
+    @staticmethod
+    @torch.no_grad()
+    def act_together(
+        policies: Sequence[ImitationPolicy], episodes: int, obs: np.ndarray, step: int
+    ) -> np.ndarray:
+        """Rows [i*episodes, (i+1)*episodes) of `obs` played by policies[i], in one call of
+        their shared model (each row with its policy's z)."""
+        z = torch.cat([p.z_at(step).reshape(1, -1).expand(episodes, -1) for p in policies])
+        return policies[0].model.act(torch.as_tensor(obs), z).numpy()
 
     def save(self, path: str | Path) -> Path:
         path = Path(path)

@@ -1,0 +1,135 @@
+"""What the baselines share: the paper's per-domain settings (App. D, Table 2), transition
+tensors from demonstrations and from the unsupervised dataset, and a trained network as an
+imitation policy."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+
+from fbil.checkpoint import save_state
+from fbil.imitation.demos import Demos
+from fbil.imitators.base import FitContext, Imitator, Policy
+
+# Table 2: the discount of the IL baselines (0.98 in locomotion) and ORIL's gradient
+# penalty weight, per domain.
+PAPER_GAMMA = {"point_mass_maze": 0.99, "walker": 0.98, "cheetah": 0.98, "quadruped": 0.98}
+PAPER_GRADIENT_PENALTY = {"point_mass_maze": 10.0, "walker": 2.0, "cheetah": 2.0, "quadruped": 10.0}
+
+
+def paper_gamma(domain: str) -> float:
+    return PAPER_GAMMA.get(domain, 0.98)
+
+
+@dataclass
+class Transitions:
+    """Rows (s, a, s', discount); `expert` marks rows from the demonstrations."""
+
+    obs: torch.Tensor
+    action: torch.Tensor | None
+    next_obs: torch.Tensor
+    discount: torch.Tensor
+    expert: torch.Tensor  # bool
+
+    def __len__(self) -> int:
+        return len(self.obs)
+
+
+def demo_transitions(demos: Demos) -> Transitions:
+    """All (s_t, a_t, s_{t+1}) of the demonstrations (no actions for action-free demos)."""
+    obs = [torch.as_tensor(np.asarray(t.observation, np.float32)) for t in demos.trajectories]
+    action = (
+        torch.cat([torch.as_tensor(np.asarray(t.action, np.float32)) for t in demos.trajectories])
+        if demos.has_actions
+        else None
+    )
+    cur = torch.cat([o[:-1] for o in obs])
+    return Transitions(
+        cur,
+        action,
+        torch.cat([o[1:] for o in obs]),
+        torch.ones(len(cur)),
+        torch.ones(len(cur), dtype=torch.bool),
+    )
+
+
+def dataset_rows(dataset: Any, rows: torch.Tensor) -> Transitions:
+    """Transitions `rows` (indices into the dataset's transitions) of an unsupervised
+    dataset, as views of its arrays: transition j is (obs[j-1], action[j], obs[j])."""
+    j = torch.from_numpy(dataset.next_index)[rows]
+    observation = torch.from_numpy(dataset.observation)
+    return Transitions(
+        observation[j - 1],
+        torch.from_numpy(dataset.action)[j],
+        observation[j],
+        torch.from_numpy(dataset.discount)[j],
+        torch.zeros(len(rows), dtype=torch.bool),
+    )
+
+
+def standardiser(observations: np.ndarray | torch.Tensor, floor: float) -> torch.Tensor:
+    """(mean, std) of observations, std at least `floor`: a (2, obs_dim) tensor."""
+    obs = torch.as_tensor(observations, dtype=torch.float64)
+    return torch.stack([obs.mean(0), obs.std(0).clamp_min(floor)]).float()
+
+
+class TrainedPolicy:
+    """A network trained for one imitation task, as a batched imitation policy."""
+
+    suffix = ".safetensors"
+
+    def __init__(
+        self,
+        method: str,
+        act_fn: Callable[[np.ndarray], np.ndarray],
+        state: dict[str, Any],
+        info: dict[str, float],
+    ) -> None:
+        self.method, self.act_fn, self.state, self.info = method, act_fn, state, dict(info)
+
+    @torch.no_grad()
+    def act(self, obs: np.ndarray, step: int | None = None) -> np.ndarray:
+        actions = self.act_fn(np.asarray(obs, np.float32))
+        return np.clip(actions, -1.0, 1.0).astype(np.float32)
+
+    __call__ = act
+
+    def reset(self) -> None:
+        pass  # Markovian: no counter
+
+    def describe(self) -> dict[str, Any]:
+        return dict(self.info)
+
+    def save(self, path: str | Path) -> Path:
+        return save_state(path, {"method": self.method, "info": self.info, **self.state})
+
+
+def trained_imitator(
+    name: str,
+    principle: str,
+    fit: Callable[[Demos, FitContext], Policy],
+    budgets: dict[str, Any],
+    needs_actions: bool,
+    needs_dataset: bool,
+) -> Imitator:
+    """An offline-IL imitator with named budgets; its results lines record the budget's
+    name and its whole configuration."""
+
+    def settings(context: FitContext) -> dict[str, Any]:
+        return {"budget": context.budget, "config": asdict(budgets[context.budget])}
+
+    return Imitator(
+        name,
+        "offline-il",
+        principle,
+        fit,
+        needs_actions=needs_actions,
+        needs_dataset=needs_dataset,
+        budgets=tuple(budgets),
+        settings=settings,
+    )

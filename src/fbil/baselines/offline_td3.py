@@ -1,0 +1,122 @@
+"""Offline TD3 on the unsupervised dataset (optionally mixed with the expert transitions),
+relabeled by an imitation reward: the RL half of TD3IL and the ORIL variants.
+
+Each minibatch holds `batch_size` rows: expert rows at a fixed ratio (TD3IL, paper App. B),
+or drawn uniformly from the union of both sets (`expert_ratio=None`), or none (no expert
+set); a `Labeler` gives every row its reward, then one `fbil.agents.td3.TD3` update."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import torch
+
+from fbil.agents.td3 import TD3, TD3Config
+from fbil.baselines.common import Transitions, dataset_rows, paper_gamma
+from fbil.errors import FbilError
+
+Labeler = Callable[[Transitions], torch.Tensor]  # a minibatch -> its rewards (B,)
+
+
+@dataclass(frozen=True)
+class OfflineTD3Config:
+    """Table 2's settings for the TD3 of the IL baselines, with the networks' width and the
+    number of gradient steps shrunk for CPUs (paper: 1024 units)."""
+
+    steps: int = 50_000
+    hidden: int = 256
+    batch_size: int = 512
+    lr: float = 1e-4
+    tau: float = 0.01  # target momentum 0.99
+    policy_noise: float = 0.2
+    noise_clip: float = 0.3
+
+    def td3(self, domain: str) -> TD3Config:
+        return TD3Config(
+            hidden=self.hidden,
+            batch_size=self.batch_size,
+            lr=self.lr,
+            gamma=paper_gamma(domain),
+            tau=self.tau,
+            policy_noise=self.policy_noise,
+            noise_clip=self.noise_clip,
+        )
+
+
+class MixedSampler:
+    """Minibatches of dataset rows and expert rows (see the module's docstring)."""
+
+    def __init__(
+        self,
+        dataset: Any,
+        expert: Transitions | None,
+        batch_size: int,
+        expert_ratio: float | None,
+        gen: torch.Generator,
+    ) -> None:
+        if expert is not None and expert.action is None:
+            raise FbilError("expert rows for TD3 need actions")
+        if expert_ratio is not None and not 0.0 <= expert_ratio < 1.0:
+            raise FbilError(f"expert_ratio must be in [0, 1), got {expert_ratio}")
+        self.dataset, self.expert, self.gen = dataset, expert, gen
+        self.batch_size, self.ratio = batch_size, expert_ratio
+        self.n_data = int(dataset.num_transitions)
+
+    def expert_count(self) -> int:
+        """Expert rows in the next minibatch."""
+        if self.expert is None:
+            return 0
+        if self.ratio is not None:  # fixed: at least one row whenever the ratio is > 0
+            return max(1, round(self.ratio * self.batch_size)) if self.ratio > 0 else 0
+        share = len(self.expert) / (len(self.expert) + self.n_data)
+        draw = torch.rand(self.batch_size, generator=self.gen) < share
+        return int(draw.sum())
+
+    def __call__(self) -> Transitions:
+        n_expert = self.expert_count()
+        rows = torch.randint(0, self.n_data, (self.batch_size - n_expert,), generator=self.gen)
+        part = dataset_rows(self.dataset, rows)
+        if not n_expert:
+            return part
+        e = self.expert
+        assert e is not None and e.action is not None and part.action is not None
+        pick = torch.randint(0, len(e), (n_expert,), generator=self.gen)
+        return Transitions(
+            torch.cat([part.obs, e.obs[pick]]),
+            torch.cat([part.action, e.action[pick]]),
+            torch.cat([part.next_obs, e.next_obs[pick]]),
+            torch.cat([part.discount, e.discount[pick]]),
+            torch.cat([part.expert, e.expert[pick]]),
+        )
+
+
+def train_offline_td3(
+    dataset: Any,
+    label: Labeler,
+    config: OfflineTD3Config,
+    seed: int,
+    expert: Transitions | None = None,
+    expert_ratio: float | None = None,
+) -> tuple[TD3, dict[str, float]]:
+    """TD3 trained for `config.steps` updates on relabeled minibatches; the agent and the
+    last update's numbers (critic loss, mean Q, mean reward)."""
+    spec = config.td3(dataset.domain)
+    agent = TD3(dataset.observation.shape[1], dataset.action.shape[1], spec, seed)
+    agent.set_obs_stats(dataset.observation)
+    sample = MixedSampler(dataset, expert, spec.batch_size, expert_ratio, agent.gen)
+    last: dict[str, float] = {}
+    for _ in range(config.steps):
+        batch = sample()
+        with torch.no_grad():
+            reward = label(batch).float()
+        assert batch.action is not None
+        metrics = agent.update(batch.obs, batch.action, reward, batch.next_obs, batch.discount)
+        last = {**metrics, "reward_mean": float(reward.mean())}
+    return agent, {k: round(v, 5) for k, v in last.items()}
+
+
+def agent_state(agent: TD3) -> dict[str, Any]:
+    """What an imitation policy file keeps of a TD3 agent: its actor and input statistics."""
+    return {"actor": agent.actor.state_dict(), "obs_stats": agent.obs_stats}

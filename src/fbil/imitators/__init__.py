@@ -1,0 +1,28 @@
+"""Imitators: every imitation algorithm (FB-IL methods, offline-IL baselines, other
+behaviour foundation models) behind one interface and one registry of names."""
+
+from fbil.imitators.base import FAMILIES, FitContext, Fitted, Imitator, Policy
+from fbil.imitators.registry import (
+    Selection,
+    family_of,
+    fit,
+    get_imitator,
+    imitators,
+    principle_of,
+    resolve,
+)
+
+__all__ = [
+    "FAMILIES",
+    "FitContext",
+    "Fitted",
+    "Imitator",
+    "Policy",
+    "Selection",
+    "family_of",
+    "fit",
+    "get_imitator",
+    "imitators",
+    "principle_of",
+    "resolve",
+]

@@ -1,0 +1,123 @@
+"""The one imitator interface: demonstrations (plus, for imitators that train, the
+unsupervised dataset and a budget) in, a policy that acts on a batch of observations out.
+
+Every imitation algorithm, whatever its family, is an `Imitator`; `fit` times it the same
+way for all: wall seconds from demonstrations in memory (and any model or dataset already
+loaded) to a policy that can act.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Protocol, runtime_checkable
+
+import numpy as np
+
+from fbil.errors import FbilError
+from fbil.imitation.demos import Demos
+
+# fb-il: through a pre-trained FB model, in seconds; offline-il: trained from scratch on
+# the demos (and the unsupervised dataset); bfm: through another behaviour foundation model.
+FAMILIES = ("fb-il", "offline-il", "bfm")
+
+
+@runtime_checkable
+class Policy(Protocol):
+    """An imitation policy: `act(obs[N, obs_dim], step) -> actions[N, act_dim]` in
+    [-1, 1] (`step`: steps already taken in the episode; without it, the policy's own
+    counter, which `reset()` sets back to 0)."""
+
+    suffix: str  # file type of `save` (".json", ".safetensors")
+
+    def act(self, obs: np.ndarray, step: int | None = None) -> np.ndarray: ...
+
+    def reset(self) -> None: ...
+
+    def describe(self) -> dict[str, Any]: ...  # a JSON-able summary for `fbil imitate`
+
+    def save(self, path: str | Path) -> Path: ...
+
+
+@dataclass(frozen=True)
+class FitContext:
+    """What an imitator may use besides the demonstrations: the FB model (fb-il), the
+    unsupervised dataset and a named budget (imitators that train), seed and threads."""
+
+    model: Any = None
+    dataset: Any = None
+    budget: str = "cpu"
+    seed: int = 0
+    threads: int = 1
+    optimiser: Any = None  # fb-il: the z optimiser (None: its default)
+
+
+@dataclass(frozen=True)
+class Fitted:
+    name: str
+    policy: Policy
+    seconds: float  # time to policy
+
+
+@dataclass(frozen=True)
+class Imitator:
+    name: str
+    family: str
+    principle: str  # the IL principle, as the report names it
+    fit_policy: Callable[[Demos, FitContext], Policy]
+    needs_actions: bool = False
+    needs_dataset: bool = False
+    needs_model: bool = False
+    budgets: Sequence[str] = ()  # named budgets of imitators that train
+    # The settings a results line records for this imitator under `context`.
+    settings: Callable[[FitContext], dict[str, Any]] = field(default=lambda _: {})
+
+    def __post_init__(self) -> None:
+        assert self.family in FAMILIES, self.family
+
+    def require(self, context: FitContext) -> None:
+        """One-line errors for inputs this imitator needs and `context` lacks."""
+        if self.needs_dataset and context.dataset is None:
+            raise FbilError(
+                f"{self.name} trains on the unsupervised dataset: pass --data DIR "
+                "(a dataset of the demonstrations' domain)"
+            )
+        if self.needs_model and context.model is None:
+            raise FbilError(f"{self.name} imitates through an FB model: pass the model folder")
+        if self.budgets and context.budget not in self.budgets:
+            raise FbilError(
+                f"unknown budget {context.budget!r} for {self.name}; valid: "
+                f"{', '.join(self.budgets)}"
+            )
+
+    def check(self, demos: Demos, context: FitContext) -> None:
+        """One-line errors for what this imitator cannot work with."""
+        if self.needs_actions and not demos.has_actions:
+            raise FbilError(
+                f"{self.name} needs expert actions, and these demonstrations have none; "
+                "use an action-free method (e.g. erfb, goalfb, oril_o)"
+            )
+        self.require(context)
+        if self.needs_dataset:
+            check_dataset(demos, context.dataset)
+
+    def fit(self, demos: Demos, context: FitContext) -> Fitted:
+        """Check, then fit and time: the seconds are the time to policy."""
+        self.check(demos, context)
+        started = time.perf_counter()
+        policy = self.fit_policy(demos, context)
+        return Fitted(self.name, policy, time.perf_counter() - started)
+
+
+def check_dataset(demos: Demos, dataset: Any) -> None:
+    """The dataset must be of the demonstrations' domain (and state size)."""
+    want, found = demos.metadata.get("domain"), getattr(dataset, "domain", None)
+    if want and found and want != found:
+        raise FbilError(
+            f"the dataset is of {found}, the demonstrations of {want}; pass --data with a "
+            f"{want} dataset"
+        )
+    width = int(dataset.observation.shape[1])
+    demos.validate(width, int(dataset.action.shape[1]), source="demos")

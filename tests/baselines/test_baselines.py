@@ -1,0 +1,202 @@
+"""The offline-IL baselines: BC's fit, the TD3IL and ORIL reward labels on hand-built
+batches, and every baseline end to end at smoke size through `fbil evaluate` and the
+benchmark grid, on the maze fixture."""
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import torch
+from torch import nn
+
+from fbil.baselines.bc import BCConfig, train_bc
+from fbil.baselines.common import Transitions, demo_transitions
+from fbil.baselines.offline_td3 import MixedSampler
+from fbil.baselines.oril import Discriminator, discriminator_loss
+from fbil.baselines.td3il import labels
+from fbil.data import list_episodes, load_dataset, load_episode
+from fbil.envs.relabel import relabel
+from fbil.evaluation.benchmark import make_jobs, run_job
+from fbil.imitation import Demos, Trajectory, from_arrays
+
+BASELINES = ("bc", "td3il", "oril", "oril_o", "oril_oo")
+
+
+@pytest.fixture(scope="module")
+def demos_dir(fixture_data: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """square.npz: two fixture episodes relabeled with the task's reward (as the
+    evaluation tests make them), and an action-free copy."""
+    out = tmp_path_factory.mktemp("demos")
+    trajs = []
+    for f in list_episodes(fixture_data)[:2]:
+        ep = load_episode(f.path)
+        reward = relabel("point_mass_maze", "square", ep["physics"][1:], ep["action"][1:])
+        trajs.append(Trajectory(ep["observation"], ep["action"][1:], reward.astype(np.float32)))
+    meta = {"domain": "point_mass_maze", "task": "square"}
+    meta["return_mean"] = float(np.mean([float(t.reward.sum()) for t in trajs]))  # type: ignore[union-attr]
+    Demos(trajs, meta).save(out / "square.npz")
+    free = [Trajectory(t.observation, None, t.reward) for t in trajs]
+    Demos(free, meta).save(out / "square_free.npz")
+    return out
+
+
+def fbil(*args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "fbil", *args], capture_output=True, text=True, timeout=300
+    )
+
+
+@pytest.mark.parametrize("loss", ["mse", "gaussian"])
+def test_bc_recovers_a_linear_experts_actions(loss: str) -> None:
+    rng = np.random.default_rng(0)
+    w = np.array([[0.4, -0.2, 0.1, 0.0], [0.0, 0.3, -0.3, 0.2]], np.float32)
+    obs = [rng.uniform(-1, 1, (51, 4)).astype(np.float32) for _ in range(8)]
+    demos = from_arrays(obs, [o[:-1] @ w.T for o in obs])
+    rows = demo_transitions(demos)
+    assert rows.action is not None
+    cfg = BCConfig(steps=1500, hidden=64, batch_size=128, lr=1e-3, loss=loss)
+    policy = train_bc(rows.obs, rows.action, cfg, seed=0)
+    test = rng.uniform(-0.9, 0.9, (200, 4)).astype(np.float32)
+    error = np.abs(policy.act(test) - test @ w.T)
+    assert error.mean() < 0.03 and error.max() < 0.15, (error.mean(), error.max())
+
+
+def _batch(n_data: int, n_expert: int) -> Transitions:
+    gen = torch.Generator().manual_seed(0)
+    n = n_data + n_expert
+    return Transitions(
+        torch.randn(n, 4, generator=gen),
+        torch.rand(n, 2, generator=gen) * 2 - 1,
+        torch.randn(n, 4, generator=gen),
+        torch.ones(n),
+        torch.arange(n) >= n_data,
+    )
+
+
+def test_td3il_rewards_expert_rows_1_and_dataset_rows_0(fixture_data: Path) -> None:
+    batch = _batch(5, 3)
+    assert labels(batch).tolist() == [0.0] * 5 + [1.0] * 3
+    dataset = load_dataset(fixture_data)
+    expert = _batch(0, 7)
+    gen = torch.Generator().manual_seed(1)
+    fixed = MixedSampler(dataset, expert, 512, 0.002, gen)()  # Table 2's ratio: 1 row
+    assert len(fixed) == 512 and int(fixed.expert.sum()) == 1
+    assert torch.equal(labels(fixed), fixed.expert.float())
+    # The dataset's rows are its transitions (obs[j-1], action[j], obs[j]).
+    j = dataset.next_index
+    data_rows = ~fixed.expert
+    obs = dataset.observation[j - 1]
+    match = (obs[None, :, :] == fixed.obs[data_rows][:, None, :].numpy()).all(-1).any(-1)
+    assert match.all()
+    union = MixedSampler(dataset, expert, 512, None, gen)()  # 7 of ~4000 rows: ~1 a batch
+    assert len(union) == 512 and int(union.expert.sum()) <= 8
+
+
+def _linear(disc: Discriminator, width: int) -> torch.Tensor:
+    """Replace D's network by a known linear logit w.x + 0.5; return w."""
+    w = torch.linspace(-0.5, 0.5, width)
+    layer = nn.Linear(width, 1)
+    with torch.no_grad():
+        layer.weight.copy_(w[None])
+        layer.bias.fill_(0.5)
+    disc.net = nn.Sequential(layer)
+    return w
+
+
+@pytest.mark.parametrize("kind, width", [("sa", 6), ("s", 4), ("ss", 8)])
+def test_oril_reward_is_log_of_d_plus_1_on_the_variants_input(kind: str, width: int) -> None:
+    stats = torch.stack([torch.full((4,), 0.1), torch.full((4,), 2.0)])
+    disc = Discriminator(kind, stats, act_dim=2, hidden=16)
+    batch = _batch(4, 2)
+    norm_obs, norm_next = (batch.obs - 0.1) / 2.0, (batch.next_obs - 0.1) / 2.0
+    assert batch.action is not None
+    expected_x = {
+        "sa": torch.cat([norm_obs, batch.action], -1),
+        "s": norm_next,
+        "ss": torch.cat([norm_obs, norm_next], -1),
+    }[kind]
+    torch.testing.assert_close(disc.features(batch), expected_x)
+    w = _linear(disc, width)
+    d = torch.sigmoid(expected_x @ w + 0.5)
+    torch.testing.assert_close(disc.reward(batch), torch.log(d + 1))
+    # BCE (expert 1, dataset 0); a linear logit's input gradient is w everywhere.
+    x = disc.features(batch)
+    gen = torch.Generator().manual_seed(0)
+    bare = discriminator_loss(disc, x[4:], x[:2], 0.0, gen)
+    bce = (
+        -torch.log(torch.sigmoid(x[4:] @ w + 0.5)).mean()
+        - torch.log(1 - torch.sigmoid(x[:2] @ w + 0.5)).mean()
+    )
+    torch.testing.assert_close(bare, bce)
+    penalised = discriminator_loss(disc, x[4:], x[:2], 10.0, gen)
+    torch.testing.assert_close(penalised - bare, 10.0 * (w.norm() - 1) ** 2)
+
+
+def test_every_baseline_runs_end_to_end_from_the_command_line(
+    smoke_model_dir: Path, demos_dir: Path, fixture_data: Path
+) -> None:
+    """FB-IL and baselines in one call: one rollout, every results entry with its family."""
+    methods = ",".join(("erfb", *BASELINES))
+    res = fbil(
+        *("evaluate", str(smoke_model_dir), str(demos_dir / "square.npz")),
+        *("--methods", methods, "--data", str(fixture_data), "--budget", "smoke"),
+        *("--episodes", "1", "--json"),
+    )
+    assert res.returncode == 0, res.stderr
+    out = json.loads(res.stdout)["methods"]
+    assert list(out) == ["erfb", *BASELINES]
+    assert out["erfb"]["family"] == "fb-il"
+    for name in BASELINES:
+        assert out[name]["family"] == "offline-il" and out[name]["seconds"] > 0
+        assert np.isfinite(out[name]["score"])
+    # Without an FB-IL method the model is never read.
+    res = fbil(
+        *("evaluate", "no-model", str(demos_dir / "square.npz"), "--methods", "bc"),
+        *("--budget", "smoke", "--episodes", "1"),
+    )
+    assert res.returncode == 0, res.stderr
+    assert any(line.startswith("bc ") for line in res.stdout.splitlines())
+
+
+def test_benchmark_rows_carry_family_budget_and_config(demos_dir: Path, fixture_data: Path) -> None:
+    jobs = make_jobs(
+        None, demos_dir, "point_mass_maze", ["square"], ["bc", "td3il"], 1, 1, 1,
+        data=fixture_data, budget="smoke",
+    )  # fmt: skip
+    bc, td3il = (run_job(job) for job in jobs)
+    assert bc["family"] == td3il["family"] == "offline-il"
+    assert bc["data"] is None and td3il["data"] == str(fixture_data)
+    assert bc["budget"] == td3il["budget"] == "smoke"
+    assert td3il["config"]["expert_ratio"] == 0.002 and len(td3il["returns"]) == 1
+
+
+@pytest.mark.parametrize(
+    "demo, args, message",
+    [
+        ("square_free.npz", ["--methods", "bc"], "bc needs expert actions"),
+        ("square.npz", ["--methods", "td3il"], "pass --data"),
+        ("square.npz", ["--methods", "oril_o", "--data", "{data}", "--budget", "gpu"], "budget"),
+    ],
+)
+def test_baseline_mistakes_are_one_line_errors(
+    demo: str, args: list[str], message: str, demos_dir: Path, fixture_data: Path
+) -> None:
+    args = [a.format(data=fixture_data) for a in args]
+    res = fbil("evaluate", "no-model", str(demos_dir / demo), *args, "--episodes", "1")
+    lines = res.stderr.strip().splitlines()
+    assert res.returncode == 2 and len(lines) == 1 and message in lines[0], res.stderr
+
+
+def test_a_dataset_of_another_domain_is_refused(demos_dir: Path, fixture_data: Path) -> None:
+    demos = Demos.load(demos_dir / "square.npz")
+    walker = demos_dir / "walker.npz"
+    Demos(demos.trajectories, {**demos.metadata, "domain": "walker", "task": "walk"}).save(walker)
+    res = fbil(
+        *("evaluate", "no-model", str(walker), "--methods", "td3il"),
+        *("--data", str(fixture_data), "--budget", "smoke"),
+    )
+    lines = res.stderr.strip().splitlines()
+    assert res.returncode == 2 and len(lines) == 1 and "not walker" in lines[0], res.stderr

@@ -1,0 +1,69 @@
+"""The imitator registry: names, families and groups; side-by-side acting of policies of
+different kinds."""
+
+from typing import Any
+
+import numpy as np
+import pytest
+
+from fbil.errors import FbilError
+from fbil.evaluation.evaluate import MultiPolicy
+from fbil.imitation import MAIN_METHODS, METHODS
+from fbil.imitators import imitators, resolve
+
+
+def test_every_method_is_registered_once_with_its_family() -> None:
+    table = imitators()
+    assert [n for n, i in table.items() if i.family == "fb-il"] == list(METHODS)
+    assert [n for n, i in table.items() if i.family == "offline-il"] == [
+        "bc",
+        "td3il",
+        "oril",
+        "oril_o",
+        "oril_oo",
+    ]
+    assert all(i.principle for i in table.values())
+    assert table["bc"].needs_actions and not table["bc"].needs_dataset
+    assert table["oril_o"].needs_dataset and not table["oril_o"].needs_actions
+    assert all(set(i.budgets) == {"cpu", "smoke"} for i in table.values() if i.budgets)
+
+
+def test_names_and_groups_resolve() -> None:
+    assert resolve("all").names == MAIN_METHODS and resolve("all").group
+    assert resolve("offline-il").names[0] == "bc" and resolve("offline-il").group
+    explicit = resolve(" BC , erfb")
+    assert explicit.names == ["bc", "erfb"] and not explicit.group
+    with pytest.raises(FbilError, match="unknown method gail; valid: erfb"):
+        resolve("bc,gail")
+    with pytest.raises(FbilError, match="no bfm methods"):
+        resolve("bfm")
+
+
+class Shared:
+    """Policies with one `together_key` act in one call."""
+
+    calls: list[int] = []  # noqa: RUF012
+
+    def __init__(self, value: float) -> None:
+        self.value, self.together_key = value, "shared"
+
+    @staticmethod
+    def act_together(policies: Any, episodes: int, obs: np.ndarray, step: int) -> np.ndarray:
+        Shared.calls.append(len(obs))
+        return np.repeat([[p.value] for p in policies], episodes, axis=0) + 0 * obs[:, :1]
+
+
+class Alone:
+    def __init__(self, value: float) -> None:
+        self.value = value
+
+    def act(self, obs: np.ndarray, step: int | None = None) -> np.ndarray:
+        return np.full((len(obs), 1), self.value)
+
+
+def test_policies_of_different_kinds_play_side_by_side() -> None:
+    Shared.calls.clear()
+    policies: list[Any] = [Shared(1), Shared(2), Alone(3), Shared(4)]
+    actions = MultiPolicy(policies, episodes=2)(np.zeros((8, 4), np.float32), 0)
+    assert actions[:, 0].tolist() == [1, 1, 2, 2, 3, 3, 4, 4]
+    assert Shared.calls == [4, 2]  # the first two together, the last on its own
