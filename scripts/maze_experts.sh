@@ -3,8 +3,9 @@
 # demonstrations: 20 standard-start and 10 shifted-start per task.
 # Usage: scripts/maze_experts.sh [DATA_DIR] [RUNS_DIR] [DEMOS_DIR] [STEPS] [THREADS]
 # TASKS="a b" limits the tasks (e.g. to split them over two processes); NSTEP=n sets
-# TD3's n-step return (default 10; the dense-reward tasks fast_slow and
-# reach_bottom_left_long are better with short returns, see the README).
+# TD3's n-step return (default 10; shorter or longer returns did not rescue the
+# dense-reward tasks fast_slow and reach_bottom_left_long, online fine-tuning did: see
+# docs/experts.md, "Other n-step returns offline").
 # ONLINE_STEPS=N then fine-tunes each offline expert online for N env steps (`--init`, one
 # update per step) into RUNS/<task>_online, and records the demos from that expert.
 # Resumable: a finished expert is skipped, an interrupted one continues from its checkpoint.

@@ -26,16 +26,20 @@ def test_manifest_records_and_verifies_every_file(tmp_path: Path) -> None:
         verify(tmp_path)
 
 
-@pytest.mark.parametrize(
-    "folder",
-    [
-        "datasets/point_mass_maze",
-        "models/point_mass_maze",
-        "results/point_mass_maze",
-        "diagnostics/point_mass_maze",
-    ],
+ARTIFACTS = Path(__file__).parents[1] / "artifacts"
+FOLDERS = sorted(
+    p.parent.relative_to(ARTIFACTS).as_posix() for p in ARTIFACTS.glob("*/*/manifest.json")
 )
+
+
+def test_every_domain_folder_of_artifacts_has_a_manifest() -> None:
+    folders = {p.relative_to(ARTIFACTS).as_posix() for p in ARTIFACTS.glob("*/*") if p.is_dir()}
+    assert folders == set(FOLDERS)
+    assert "models/point_mass_maze" in FOLDERS
+
+
+@pytest.mark.parametrize("folder", FOLDERS)
 def test_committed_artifacts_match_their_manifests(folder: str) -> None:
-    root = Path(__file__).parents[1] / "artifacts" / folder
+    root = ARTIFACTS / folder
     body = verify(root)
     assert body["sha256"] and body["command"].startswith("fbil ")

@@ -124,6 +124,7 @@ UNWRITABLE = {
     "report": ["report", "{gone}/results.jsonl", "--out", "{out}"],
     "collect": ["collect", "point_mass_maze", "--episodes", "1", "--out", "{out}"],
     "pretrain": ["pretrain", "point_mass_maze", "--data", "{gone}", "--out", "{out}"],
+    "pretrain-goal": ["pretrain-goal", "point_mass_maze", "--data", "{gone}", "--out", "{out}"],
     "expert": ["expert", "point_mass_maze", "loop", "--data", "{gone}", "--out", "{out}"],
     "demos": ["demos", "{gone}/expert", "--episodes", "1", "--out", "{out}.npz"],
     "dataset-info": ["dataset-info", "{gone}", "--plot", "{out}.png"],

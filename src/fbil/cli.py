@@ -237,6 +237,34 @@ def _cmd_pretrain(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_pretrain_goal(args: argparse.Namespace) -> int:
+    import dataclasses
+
+    from fbil.baselines.goal_td3 import GoalTD3Trainer, goal_preset
+    from fbil.data import load_dataset
+
+    cfg = goal_preset(args.domain, args.preset)
+    given = (
+        ("steps", args.steps),
+        ("seed", args.seed),
+        ("checkpoint_seconds", args.checkpoint_seconds),
+    )
+    (overrides,) = _settings(args.set, cfg)
+    overrides.update({k: v for k, v in given if v is not None})
+    cfg = dataclasses.replace(cfg, **overrides)
+    trainer = GoalTD3Trainer(cfg, load_dataset(args.data, domain=args.domain))
+    model = trainer.fit(args.out, resume=args.resume, progress=not args.json)
+    summary = {
+        "out": str(args.out),
+        "steps": trainer.step,
+        "epsilon": model.config.epsilon,
+        "wall_seconds": model.metadata.get("wall_seconds"),
+    }
+    done = f"goal model saved in {args.out} ({trainer.step} steps)"
+    print(json.dumps(summary) if args.json else done)
+    return 0
+
+
 def _cmd_zero_shot(args: argparse.Namespace) -> int:
     from fbil.data import load_dataset
     from fbil.fb.model import FBModel
@@ -281,7 +309,13 @@ def _fit_context(args: argparse.Namespace, names: Sequence[str], demos: Any) -> 
         from fbil.data import load_dataset
 
         dataset = load_dataset(args.data, domain=demos.metadata.get("domain") or None)
-    return FitContext(model, dataset, args.budget, getattr(args, "seed", 0), args.threads)
+    goal = None
+    if getattr(args, "goal_model", None) and any(i.needs_goal_model for i in needed):
+        from fbil.baselines.goal_model import GoalModel
+
+        goal = GoalModel.load(args.goal_model)
+    seed = getattr(args, "seed", 0)
+    return FitContext(model, dataset, args.budget, seed, args.threads, goal_model=goal)
 
 
 def _cmd_imitate(args: argparse.Namespace) -> int:
@@ -404,6 +438,7 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
         seed=args.seed,
         dataset=context.dataset,
         budget=args.budget,
+        goal_model=context.goal_model,
     )
     methods = {m: r.as_dict() for m, r in out["results"].items()}
     methods.update({m: {"skipped": why} for m, why in out["skipped"].items()})
@@ -457,6 +492,7 @@ def _cmd_benchmark(args: argparse.Namespace) -> int:
         demo_set=args.demo_set,
         data=args.data,
         budget=args.budget,
+        goal_model=args.goal_model,
     )
     before = len(read_results(args.out))
     bar = tqdm(
@@ -634,24 +670,39 @@ def _add_compile(p: argparse.ArgumentParser) -> None:
     )
 
 
-def _add_pretrain(sub: Any) -> None:
-    about = "pre-train an FB model on a dataset"
-    p = _command(sub, "pretrain", _cmd_pretrain, about, threads=True, outputs=_OUT_FOLDER)
+def _pretrain_command(
+    sub: Any, name: str, func: Command, about: str, presets: str, out: str
+) -> argparse.ArgumentParser:
+    """A pre-training verb: DOMAIN, --data, --preset, --out and --steps."""
+    p = _command(sub, name, func, about, threads=True, outputs=_OUT_FOLDER)
     p.add_argument("domain")
     p.add_argument("--data", required=True, help="dataset folder")
-    p.add_argument("--preset", default="cpu", help="paper, cpu or smoke")
-    p.add_argument("--out", required=True, help="model folder")
+    p.add_argument("--preset", default="cpu", help=presets)
+    p.add_argument("--out", required=True, help=out)
     p.add_argument("--steps", type=int, default=None, help="gradient steps (preset default)")
+    return p
+
+
+def _add_pretrain(sub: Any) -> None:
+    about = "pre-train an FB model on a dataset"
+    p = _pretrain_command(
+        sub, "pretrain", _cmd_pretrain, about, "paper, cpu or smoke", "model folder"
+    )
     p.add_argument("--batch-size", type=int, default=None, help="(preset default)")
     p.add_argument("--seed", type=int, default=None, help="(preset default)")
     p.add_argument("--device", default="cpu", help="cpu or cuda")
     _add_compile(p)
+    _add_run_options(p, "lr_b=1e-6")
+
+
+def _add_run_options(p: argparse.ArgumentParser, example: str) -> None:
+    """--resume, --set and --checkpoint-seconds of a resumable training run."""
     p.add_argument("--resume", action="store_true", help="continue from OUT's checkpoint")
     p.add_argument(
         "--set",
         action="append",
         metavar="KEY=VALUE",
-        help="override a training setting, e.g. --set lr_b=1e-6 (repeatable)",
+        help=f"override a training setting, e.g. --set {example} (repeatable)",
     )
     p.add_argument(
         "--checkpoint-seconds",
@@ -659,6 +710,15 @@ def _add_pretrain(sub: Any) -> None:
         default=None,
         help="seconds between checkpoints (default 180)",
     )
+
+
+def _add_pretrain_goal(sub: Any) -> None:
+    about = "pre-train GOAL-TD3's goal-conditioned policy on a dataset (HER)"
+    p = _pretrain_command(
+        sub, "pretrain-goal", _cmd_pretrain_goal, about, "cpu or smoke", "goal model folder"
+    )
+    p.add_argument("--seed", type=int, default=None, help="(preset default)")
+    _add_run_options(p, "epsilon=0.02")
 
 
 def _add_zero_shot(sub: Any) -> None:
@@ -681,6 +741,11 @@ def _add_training_inputs(p: argparse.ArgumentParser) -> None:
         "--budget",
         default="cpu",
         help="training budget of methods that train: cpu, or smoke (seconds, for tests)",
+    )
+    p.add_argument(
+        "--goal-model",
+        default=None,
+        help="pre-trained goal model folder, for goal_td3 (from `fbil pretrain-goal`)",
     )
 
 
@@ -827,6 +892,7 @@ def build_parser() -> argparse.ArgumentParser:
         _add_collect,
         _add_datasets,
         _add_pretrain,
+        _add_pretrain_goal,
         _add_zero_shot,
         _add_imitate,
         _add_expert,

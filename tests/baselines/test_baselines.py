@@ -23,6 +23,7 @@ from fbil.evaluation.benchmark import make_jobs, run_job
 from fbil.imitation import Demos, Trajectory, from_arrays
 
 BASELINES = ("bc", "td3il", "oril", "oril_o", "oril_oo")
+BASELINES += ("dwbc", "sqil", "demodice", "smodice", "lobsdice", "iqlearn")
 
 
 @pytest.fixture(scope="module")

@@ -21,7 +21,16 @@ def test_every_method_is_registered_once_with_its_family() -> None:
         "oril",
         "oril_o",
         "oril_oo",
+        "dwbc",
+        "sqil",
+        "demodice",
+        "smodice",
+        "lobsdice",
+        "iqlearn",
+        "otr",
     ]
+    assert [n for n, i in table.items() if i.family == "bfm"] == ["goal_td3"]
+    assert table["goal_td3"].needs_goal_model and not table["goal_td3"].budgets
     assert all(i.principle for i in table.values())
     assert table["bc"].needs_actions and not table["bc"].needs_dataset
     assert table["oril_o"].needs_dataset and not table["oril_o"].needs_actions
@@ -35,8 +44,7 @@ def test_names_and_groups_resolve() -> None:
     assert explicit.names == ["bc", "erfb"] and not explicit.group
     with pytest.raises(FbilError, match="unknown method gail; valid: erfb"):
         resolve("bc,gail")
-    with pytest.raises(FbilError, match="no bfm methods"):
-        resolve("bfm")
+    assert resolve("bfm").names == ["goal_td3"] and resolve("bfm").group
 
 
 class Shared:

@@ -25,7 +25,7 @@ from fbil.checkpoint import atomic_write_text, load_state, save_state
 from fbil.config import config_from_dict
 from fbil.csvlog import truncate_log
 from fbil.data import load_dataset
-from fbil.envs import BatchedEnv, get_domain, get_task
+from fbil.envs import BatchedEnv, DomainSpec, get_domain, get_task
 from fbil.errors import FbilError
 from fbil.imitation.demos import Demos, Trajectory
 
@@ -72,6 +72,54 @@ def train_expert(
 ) -> dict[str, Any]:
     """Train a TD3 expert; `init` (online only) starts from another expert's networks and
     input statistics (offline-to-online fine-tuning)."""
+    spec = _check_arguments(domain, task, mode, data, num_envs, start_steps)
+    out = Path(out)
+    _check_out(out, resume)
+    cfg = config or TD3Config()
+    agent = TD3(spec.obs_dim, spec.act_dim, cfg, seed)
+    step, learner_state = _restore(agent, cfg, out, resume, init, mode, domain)
+    out.mkdir(parents=True, exist_ok=True)
+    learner: _OfflineLoop | _OnlineLoop
+    if mode == "offline":
+        learner = _offline_learner(agent, cfg, data, domain, task, resume)
+    else:
+        learner = _OnlineLoop(
+            agent, domain, task, num_envs, start_steps, seed, step, warm_actor=init is not None
+        )
+    if resume and learner_state:
+        learner.load(learner_state)
+    run = _Run(out, domain, task, seed, eval_episodes, cfg, agent, learner)
+    step, best = _train_loop(run, step, steps, eval_every, checkpoint_seconds, resume, progress)
+    run.save_checkpoint(step)
+    returns = run.evaluate()
+    _keep_if_best(out, agent, step, float(returns.mean()), best)  # the last one counts too
+    return _write_meta(run, mode, step, data, returns, command)
+
+
+@dataclasses.dataclass
+class _Run:
+    """What one expert's training steps share: where it writes, its task, its learner."""
+
+    out: Path
+    domain: str
+    task: str
+    seed: int
+    eval_episodes: int
+    cfg: TD3Config
+    agent: TD3
+    learner: _OfflineLoop | _OnlineLoop
+
+    def evaluate(self) -> np.ndarray:
+        return evaluate(self.agent, self.domain, self.task, self.eval_episodes, self.seed)
+
+    def save_checkpoint(self, step: int) -> None:
+        save_state(self.out / CHECKPOINT, _checkpoint(self.agent, self.learner, step, self.cfg))
+
+
+def _check_arguments(
+    domain: str, task: str, mode: str, data: str | Path | None, num_envs: int, start_steps: int
+) -> DomainSpec:
+    """The domain's spec, once the arguments are known to make sense."""
     spec = get_domain(domain)
     get_task(domain, task)
     if mode not in ("offline", "online"):
@@ -80,89 +128,124 @@ def train_expert(
         raise FbilError("--num-envs must be >= 1 and --start-steps >= 0")
     if mode == "offline" and data is None:
         raise FbilError("--mode offline needs --data DIR (a dataset to relabel with the task)")
-    out = Path(out)
+    return spec
+
+
+def _check_out(out: Path, resume: bool) -> None:
     ckpt = out / CHECKPOINT
     if resume and not ckpt.is_file():
         raise FbilError(f"--resume: no checkpoint in {out} (start without --resume)")
     if not resume and (ckpt.exists() or (out / EXPERT).exists()):
         raise FbilError(f"{out} already holds an expert: pass --resume or choose another --out")
-    cfg = config or TD3Config()
-    agent = TD3(spec.obs_dim, spec.act_dim, cfg, seed)
-    step = 0
-    learner_state: dict[str, Any] = {}
+
+
+def _restore(
+    agent: TD3,
+    cfg: TD3Config,
+    out: Path,
+    resume: bool,
+    init: str | Path | None,
+    mode: str,
+    domain: str,
+) -> tuple[int, dict[str, Any]]:
+    """Load the checkpoint into `agent` (--resume) or the networks of the `init` expert;
+    the step to go on from and the learner's saved state."""
     if resume:
+        ckpt = out / CHECKPOINT
         state = load_state(ckpt)
         saved = config_from_dict(TD3Config, state["config"], "TD3 config")
         if saved != cfg:
             raise FbilError(f"{ckpt} was trained with another TD3 config; resume with the same")
         agent.load(state["agent"])
-        step = int(state["step"])
-        learner_state = state.get("learner") or {}  # experts saved before 0.1 have none
-    elif init is not None:
+        # Experts saved before 0.1 have no learner state.
+        return int(state["step"]), state.get("learner") or {}
+    if init is not None:
         if mode != "online":
             raise FbilError("--init fine-tunes an expert online: use it with --mode online")
         _init_from_expert(agent, init, domain)
-    out.mkdir(parents=True, exist_ok=True)
+    return 0, {}
 
-    if mode == "offline":
-        dataset = load_dataset(data, domain=domain)  # type: ignore[arg-type]
-        if not resume:
-            agent.set_obs_stats(dataset.observation)
-        sample = offline_sampler(dataset, task, cfg, agent.gen)
-        learner: Any = _OfflineLoop(agent, sample)
-    else:
-        learner = _OnlineLoop(
-            agent, domain, task, num_envs, start_steps, seed, step, warm_actor=init is not None
-        )
-    if resume and learner_state:
-        learner.load(learner_state)
 
-    log = out / LOG
+def _offline_learner(
+    agent: TD3, cfg: TD3Config, data: str | Path | None, domain: str, task: str, resume: bool
+) -> _OfflineLoop:
+    dataset = load_dataset(data, domain=domain)  # type: ignore[arg-type]
+    if not resume:
+        agent.set_obs_stats(dataset.observation)
+    return _OfflineLoop(agent, offline_sampler(dataset, task, cfg, agent.gen))
+
+
+def _train_loop(
+    run: _Run,
+    step: int,
+    steps: int,
+    eval_every: int,
+    checkpoint_seconds: float,
+    resume: bool,
+    progress: bool,
+) -> tuple[int, float | None]:
+    """Learner steps up to `steps`, evaluating (CSV log, best actor) every `eval_every`
+    and checkpointing every `checkpoint_seconds`; the last step and the best return."""
+    log, best_path = run.out / LOG, run.out / BEST
     if resume:
         truncate_log(log, step, LOG_FIELDS)
     new_log = not log.exists()
     started = last_ckpt = time.perf_counter()
     last: dict[str, float] = {}
-    best = load_state(out / BEST)["return_mean"] if resume and (out / BEST).is_file() else None
+    best = load_state(best_path)["return_mean"] if resume and best_path.is_file() else None
     with open(log, "a", newline="") as fh:
         writer = csv.DictWriter(fh, LOG_FIELDS)
         if new_log:
             writer.writeheader()
-        bar = tqdm(total=steps, initial=step, disable=not progress, desc=f"expert {task}")
+        bar = tqdm(total=steps, initial=step, disable=not progress, desc=f"expert {run.task}")
         while step < steps:
-            last = learner.step() or last
+            last = run.learner.step() or last
             step += 1
             if step % eval_every == 0 or step == steps:
-                returns = evaluate(agent, domain, task, eval_episodes, seed)
-                writer.writerow(
-                    {
-                        "step": step,
-                        "return_mean": round(float(returns.mean()), 2),
-                        "return_std": round(float(returns.std()), 2),
-                        "critic_loss": round(last.get("critic_loss", 0.0), 5),
-                        "q": round(last.get("q", 0.0), 3),
-                        "wall_seconds": round(time.perf_counter() - started, 1),
-                    }
-                )
+                returns = run.evaluate()
+                writer.writerow(_log_row(step, returns, last, time.perf_counter() - started))
                 fh.flush()
                 bar.set_postfix(ret=f"{returns.mean():.1f}")
-                best = _keep_if_best(out, agent, step, float(returns.mean()), best)
+                best = _keep_if_best(run.out, run.agent, step, float(returns.mean()), best)
             if time.perf_counter() - last_ckpt > checkpoint_seconds:
-                save_state(ckpt, _checkpoint(agent, learner, step, cfg))
+                run.save_checkpoint(step)
                 last_ckpt = time.perf_counter()
             bar.update(1)
         bar.close()
-    save_state(ckpt, _checkpoint(agent, learner, step, cfg))
-    returns = evaluate(agent, domain, task, eval_episodes, seed)
-    _keep_if_best(out, agent, step, float(returns.mean()), best)  # the last one counts too
-    best_state = load_state(out / BEST) if (out / BEST).is_file() else None
+    return step, best
+
+
+def _log_row(
+    step: int, returns: np.ndarray, last: dict[str, float], seconds: float
+) -> dict[str, float]:
+    return {
+        "step": step,
+        "return_mean": round(float(returns.mean()), 2),
+        "return_std": round(float(returns.std()), 2),
+        "critic_loss": round(last.get("critic_loss", 0.0), 5),
+        "q": round(last.get("q", 0.0), 3),
+        "wall_seconds": round(seconds, 1),
+    }
+
+
+def _write_meta(
+    run: _Run,
+    mode: str,
+    step: int,
+    data: str | Path | None,
+    returns: np.ndarray,
+    command: str,
+) -> dict[str, Any]:
+    """Write expert.json: the run's settings, its last and best evaluated returns and
+    every command that trained it."""
+    best_state = load_state(run.out / BEST) if (run.out / BEST).is_file() else None
     meta = {
-        "domain": domain,
-        "task": task,
+        "domain": run.domain,
+        "task": run.task,
         "mode": mode,
         "steps": step,
-        "seed": seed,
-        "config": dataclasses.asdict(cfg),
+        "seed": run.seed,
+        "config": dataclasses.asdict(run.cfg),
         "data": str(data) if data else None,
         "return_mean": float(returns.mean()),
         "return_std": float(returns.std()),
@@ -172,9 +255,9 @@ def train_expert(
         "command": command,
         # Every invocation that trained this expert (a resumed run would otherwise hide
         # how it started, e.g. its --init).
-        "commands": [*_previous_commands(out / EXPERT), command],
+        "commands": [*_previous_commands(run.out / EXPERT), command],
     }
-    atomic_write_text(out / EXPERT, json.dumps(meta, indent=2) + "\n")
+    atomic_write_text(run.out / EXPERT, json.dumps(meta, indent=2) + "\n")
     return meta
 
 

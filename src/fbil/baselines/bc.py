@@ -41,16 +41,34 @@ BUDGETS = {
 }
 
 
+def gaussian_log_prob(out: torch.Tensor, action: torch.Tensor) -> torch.Tensor:
+    """Per-dimension log-likelihoods (B, act_dim) of `action` under the Gaussian of network
+    outputs `out`: a tanh mean and a log-std clamped to `LOG_STD`."""
+    act_dim = action.shape[1]
+    log_std = out[:, act_dim:].clamp(*LOG_STD)
+    z = (action - torch.tanh(out[:, :act_dim])) / log_std.exp()
+    return -(0.5 * z**2 + log_std + 0.5 * math.log(2 * math.pi))
+
+
 def bc_loss(out: torch.Tensor, action: torch.Tensor, loss: str) -> torch.Tensor:
     """The loss of network outputs `out` on expert actions (mean over rows)."""
-    act_dim = action.shape[1]
-    mean = torch.tanh(out[:, :act_dim])
     if loss == "mse":
-        return ((mean - action) ** 2).sum(-1).mean()
-    log_std = out[:, act_dim:].clamp(*LOG_STD)
-    z = (action - mean) / log_std.exp()
-    nll = 0.5 * z**2 + log_std + 0.5 * math.log(2 * math.pi)
-    return nll.sum(-1).mean()
+        return ((torch.tanh(out[:, : action.shape[1]]) - action) ** 2).sum(-1).mean()
+    return -gaussian_log_prob(out, action).sum(-1).mean()
+
+
+def mean_action_policy(
+    method: str, net: torch.nn.Module, stats: torch.Tensor, act_dim: int, info: dict[str, float]
+) -> TrainedPolicy:
+    """A policy that plays the tanh of the first `act_dim` outputs of `net` on states
+    standardised by `stats` (mean, std)."""
+    net.requires_grad_(False)
+
+    def act(o: np.ndarray) -> np.ndarray:
+        out = net((torch.as_tensor(o) - stats[0]) / stats[1])
+        return torch.tanh(out[:, :act_dim]).numpy()
+
+    return TrainedPolicy(method, act, {"net": net.state_dict(), "obs_stats": stats}, info)
 
 
 def train_bc(obs: torch.Tensor, action: torch.Tensor, cfg: BCConfig, seed: int) -> TrainedPolicy:
@@ -70,14 +88,8 @@ def train_bc(obs: torch.Tensor, action: torch.Tensor, cfg: BCConfig, seed: int) 
         opt.zero_grad(set_to_none=True)
         loss.backward()
         opt.step()
-    net.requires_grad_(False)
-
-    def act(o: np.ndarray) -> np.ndarray:
-        out = net((torch.as_tensor(o) - stats[0]) / stats[1])
-        return torch.tanh(out[:, :act_dim]).numpy()
-
-    state = {"net": net.state_dict(), "obs_stats": stats}
-    return TrainedPolicy("bc", act, state, {"loss_last": round(float(loss.detach()), 6)})
+    info = {"loss_last": round(float(loss.detach()), 6)}
+    return mean_action_policy("bc", net, stats, act_dim, info)
 
 
 def fit(demos: Demos, context: FitContext) -> TrainedPolicy:

@@ -35,9 +35,25 @@ class Transitions:
     next_obs: torch.Tensor
     discount: torch.Tensor
     expert: torch.Tensor  # bool
+    # Dataset rows only: each row's transition number (into `next_index`), for rewards
+    # labeled per transition beforehand (OTR); None for rows mixed with expert rows.
+    index: torch.Tensor | None = None
 
     def __len__(self) -> int:
         return len(self.obs)
+
+    def select(self, rows: torch.Tensor) -> Transitions:
+        """The rows `rows` (indices or a mask)."""
+        action = None if self.action is None else self.action[rows]
+        index = None if self.index is None else self.index[rows]
+        return Transitions(
+            self.obs[rows],
+            action,
+            self.next_obs[rows],
+            self.discount[rows],
+            self.expert[rows],
+            index,
+        )
 
 
 def demo_transitions(demos: Demos) -> Transitions:
@@ -69,6 +85,7 @@ def dataset_rows(dataset: Any, rows: torch.Tensor) -> Transitions:
         observation[j],
         torch.from_numpy(dataset.discount)[j],
         torch.zeros(len(rows), dtype=torch.bool),
+        rows,
     )
 
 

@@ -201,6 +201,9 @@ def load_dataset(
     return Dataset(root, domain, files, obs, act, disc, starts)
 
 
+_Part = tuple[Path, list[EpisodeFile], dict[str, Any]]
+
+
 def merge_datasets(
     out: str | Path, sources: list[str | Path], command: str | None = None
 ) -> dict[str, Any]:
@@ -214,7 +217,34 @@ def merge_datasets(
         raise FbilError(f"{out} already exists; choose a new --out or delete it")
     if len(sources) < 2:
         raise FbilError("merging needs at least two dataset folders")
-    parts: list[tuple[Path, list[EpisodeFile], dict[str, Any]]] = []
+    parts, domain = _merge_sources(sources)
+    tmp = out.with_name(f".{out.name}.merging")
+    if tmp.exists():
+        shutil.rmtree(tmp)
+    buf = tmp / "buffer"
+    buf.mkdir(parents=True)
+    try:
+        listing, episodes = _link_episodes(parts, buf)
+    except OSError as exc:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise FbilError(f"cannot write {out} ({exc}); check the disk and permissions") from None
+    merged = {
+        "domain": domain,
+        "merged_from": listing,
+        "episodes": episodes,
+        "fbil_version": __version__,
+        "reward": "none (reward-free; relabel with a task)",
+    }
+    if command:
+        merged["command"] = command
+    write_manifest(tmp, merged)
+    tmp.rename(out)
+    return merged
+
+
+def _merge_sources(sources: list[str | Path]) -> tuple[list[_Part], str]:
+    """Each source's folder, episode files and manifest, and the one domain they share."""
+    parts: list[_Part] = []
     domains: list[str] = []
     for src in sources:
         root = Path(src)
@@ -232,36 +262,22 @@ def merge_datasets(
     if len(set(domains)) != 1 or "None" in domains:
         named = ", ".join(f"{p[0]} ({d})" for p, d in zip(parts, domains, strict=True))
         raise FbilError(f"cannot merge datasets of different or unknown domains: {named}")
-    tmp = out.with_name(f".{out.name}.merging")
-    if tmp.exists():
-        shutil.rmtree(tmp)
-    buf = tmp / "buffer"
-    buf.mkdir(parents=True)
+    return parts, domains[0]
+
+
+def _link_episodes(parts: list[_Part], buf: Path) -> tuple[list[dict[str, Any]], int]:
+    """Hard-link (else copy) every episode file into `buf`, renumbered in order; the
+    manifest's listing of the sources and the number of episodes."""
     index = 0
     listing = []
-    try:
-        for root, files, manifest in parts:
-            for f in files:
-                stamp = f.path.name.split("_")[0]  # list_episodes matched <stamp>_<idx>_<len>
-                target = buf / f"{stamp}_{index}_{f.length}.npz"
-                try:
-                    os.link(f.path, target)
-                except OSError:
-                    shutil.copyfile(f.path, target)
-                index += 1
-            listing.append({"root": str(root), "episodes": len(files), "manifest": manifest})
-    except OSError as exc:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise FbilError(f"cannot write {out} ({exc}); check the disk and permissions") from None
-    merged = {
-        "domain": domains[0],
-        "merged_from": listing,
-        "episodes": index,
-        "fbil_version": __version__,
-        "reward": "none (reward-free; relabel with a task)",
-    }
-    if command:
-        merged["command"] = command
-    write_manifest(tmp, merged)
-    tmp.rename(out)
-    return merged
+    for root, files, manifest in parts:
+        for f in files:
+            stamp = f.path.name.split("_")[0]  # list_episodes matched <stamp>_<idx>_<len>
+            target = buf / f"{stamp}_{index}_{f.length}.npz"
+            try:
+                os.link(f.path, target)
+            except OSError:
+                shutil.copyfile(f.path, target)
+            index += 1
+        listing.append({"root": str(root), "episodes": len(files), "manifest": manifest})
+    return listing, index

@@ -48,10 +48,34 @@ class Job:
     seed: int
     data: str | None = None  # the unsupervised dataset, for methods that train on it
     budget: str | None = None  # the budget, for methods that train
+    goal_model: str | None = None  # the pre-trained goal model, for goal_td3
 
     @property
     def key(self) -> tuple[Any, ...]:
         return tuple(asdict(self).values())
+
+
+def _job_inputs(
+    methods: Sequence[str],
+    model: Any,
+    data: str | Path | None,
+    budget: str,
+    goal_model: str | Path | None,
+) -> dict[str, tuple[str | None, str | None, str | None]]:
+    """Per method, the (data, budget, goal model) of its jobs: those it uses, else None
+    (checked: a method that needs one of them refuses its absence)."""
+    from fbil.imitators import FitContext, get_imitator
+
+    inputs = {}
+    for method in methods:
+        imitator = get_imitator(method)
+        imitator.require(FitContext(model, data, budget, goal_model=goal_model))
+        inputs[method] = (
+            str(data) if imitator.needs_dataset else None,
+            budget if imitator.budgets else None,
+            str(goal_model) if imitator.needs_goal_model else None,
+        )
+    return inputs
 
 
 def demo_file(demos_dir: Path, task: str, demo_set: str) -> Path:
@@ -71,22 +95,14 @@ def make_jobs(
     demo_set: str = "standard",
     data: str | Path | None = None,
     budget: str = "cpu",
+    goal_model: str | Path | None = None,
 ) -> list[Job]:
-    """The grid, in a fixed order (tasks, then draws, then methods). `data` and `budget`
-    go to the jobs of the methods that use them (a method that needs a dataset without
-    `data` is refused here, before any job runs)."""
-    from fbil.imitators import FitContext, get_imitator
-
+    """The grid, in a fixed order (tasks, then draws, then methods). `data`, `budget` and
+    `goal_model` go to the jobs of the methods that use them (a method that needs a
+    dataset without `data` is refused here, before any job runs)."""
     if draws < 1 or k < 1 or episodes < 1:
         raise FbilError("--draws, --k and --episodes must all be >= 1")
-    inputs = {}
-    for method in methods:
-        imitator = get_imitator(method)
-        imitator.require(FitContext(model, data, budget))
-        inputs[method] = (
-            str(data) if imitator.needs_dataset else None,
-            budget if imitator.budgets else None,
-        )
+    inputs = _job_inputs(methods, model, data, budget, goal_model)
     demos_dir = Path(demos_dir)
     jobs = []
     for task in tasks:
@@ -171,6 +187,13 @@ def _demos(path: str) -> Any:
 
 
 @lru_cache(maxsize=2)
+def _goal_model(path: str) -> Any:
+    from fbil.baselines.goal_model import GoalModel
+
+    return GoalModel.load(path)
+
+
+@lru_cache(maxsize=2)
 def _dataset(path: str) -> Any:
     from fbil.data import load_dataset
 
@@ -193,6 +216,7 @@ def run_job(job: Job, commit: str = "unknown") -> dict[str, Any]:
         _dataset(job.data) if job.data else None,
         job.budget or "cpu",
         job.seed,
+        goal_model=_goal_model(job.goal_model) if job.goal_model else None,
     )
     out = evaluate(
         context.model,
@@ -206,6 +230,7 @@ def run_job(job: Job, commit: str = "unknown") -> dict[str, Any]:
         dataset=context.dataset,
         budget=context.budget,
         skip_unfit=True,
+        goal_model=context.goal_model,
     )
     row: dict[str, Any] = asdict(job)
     row.update(expert_return=out["expert_return"], commit=commit, fbil_version=__version__)

@@ -171,19 +171,21 @@ def evaluate(
     dataset: Any = None,
     budget: str = "cpu",
     skip_unfit: bool = False,
+    goal_model: Any = None,
 ) -> dict[str, Any]:
     """Imitate draw `draw` of K demos with each method, evaluate, score against the expert
     (`expert`: its mean return from the standard start; default: the demos' own record).
     `model`: the FB model (FB-IL methods), `dataset`: the unsupervised dataset and
-    `budget` (methods that train). Methods the demos cannot serve (no actions) are skipped
-    when named by a group ('all', a family) or with `skip_unfit`, else refused."""
+    `budget` (methods that train), `goal_model`: a pre-trained goal model (goal_td3).
+    Methods the demos cannot serve (no actions) are skipped when named by a group ('all',
+    a family) or with `skip_unfit`, else refused."""
     selection = resolve(methods)
     domain, task = demos_task(demos, model)
     expert = expert_return(demos) if expert is None else float(expert)
     if expert <= 0:
         raise FbilError(f"the expert's mean return is {expert}; scores need a positive one")
     chosen = demo_draw(demos, k, draw)
-    context = FitContext(model, dataset, budget, seed, optimiser=optimiser)
+    context = FitContext(model, dataset, budget, seed, optimiser=optimiser, goal_model=goal_model)
     fitted, skipped = fit_all(selection.names, chosen, context, skip_unfit or selection.group)
     results: dict[str, MethodResult] = {}
     if fitted:

@@ -107,7 +107,8 @@ _PAPER: dict[str, dict[str, Any]] = {
 }
 
 # The cpu preset's training settings per domain (a domain not listed: B's lr 1e-4).
-# Maze (README, "The FB model"): with 1e-4, B turns local and values stop at the
+# Maze (docs/fb-model.md, "The maze settings of the `cpu` preset", and the runs in
+# docs/fb-maze-notes.md): with 1e-4, B turns local and values stop at the
 # walls; at 1e-5 with 10-step targets values cross the doorways. gamma 0.99 then
 # reaches only the start room, 0.998 ignores walls; 0.997 with B frozen from 10k
 # steps (F and the actor keep learning) and the auxiliary Q loss is the best found.

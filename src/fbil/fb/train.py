@@ -58,7 +58,9 @@ LOG_FIELDS = (
 def _offdiag_mean_sq(x: torch.Tensor) -> torch.Tensor:
     """mean_{i != j} x_ij^2 over the last two dims."""
     n = x.shape[-1]
-    total = x.pow(2).sum((-2, -1)) - x.diagonal(dim1=-2, dim2=-1).pow(2).sum(-1)
+    diag = x.diagonal(dim1=-2, dim2=-1)
+    # x * x, not x.pow(2): the same numbers, ~3x faster forward and backward on CPU.
+    total = (x * x).sum((-2, -1)) - (diag * diag).sum(-1)
     return total / (n * (n - 1))
 
 
@@ -191,7 +193,11 @@ class FBTrainer:
 
     def _combine_heads(self, x: torch.Tensor) -> torch.Tensor:
         """The two target heads (dim 0) as one target: their min, or their mean."""
-        return x.min(0).values if self.cfg.target_heads == "min" else x.mean(0)
+        # Elementwise over the two heads: a min-reduction over a leading dim of size 2 is
+        # ~10x slower on CPU (1.4 ms for the n x n target at batch 512).
+        if self.cfg.target_heads == "min":
+            return torch.minimum(x[0], x[1])
+        return 0.5 * (x[0] + x[1])
 
     def b_frozen(self) -> bool:
         return 0 < self.cfg.freeze_b_step <= self.step

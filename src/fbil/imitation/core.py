@@ -133,7 +133,9 @@ class OptimiserConfig:
     loss stay fp32): half the time on AVX-512 CPUs; float64 models are never cast."""
 
     lr: float = 0.05
-    steps: int = 50  # measured: more steps did not imitate better (README, time to policy)
+    # Measured: more steps did not imitate better (docs/imitation.md, "Quality against the
+    # optimisation budget").
+    steps: int = 50
     batch_size: int | None = 128
     seed: int = 0
     precision: str = "bf16"

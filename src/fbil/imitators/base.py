@@ -44,7 +44,8 @@ class Policy(Protocol):
 @dataclass(frozen=True)
 class FitContext:
     """What an imitator may use besides the demonstrations: the FB model (fb-il), the
-    unsupervised dataset and a named budget (imitators that train), seed and threads."""
+    unsupervised dataset and a named budget (imitators that train), seed and threads, and
+    a pre-trained goal model (goal-based BFMs)."""
 
     model: Any = None
     dataset: Any = None
@@ -52,6 +53,7 @@ class FitContext:
     seed: int = 0
     threads: int = 1
     optimiser: Any = None  # fb-il: the z optimiser (None: its default)
+    goal_model: Any = None  # goal-based BFMs (goal_td3): the pre-trained goal model
 
 
 @dataclass(frozen=True)
@@ -70,6 +72,7 @@ class Imitator:
     needs_actions: bool = False
     needs_dataset: bool = False
     needs_model: bool = False
+    needs_goal_model: bool = False
     budgets: Sequence[str] = ()  # named budgets of imitators that train
     # The settings a results line records for this imitator under `context`.
     settings: Callable[[FitContext], dict[str, Any]] = field(default=lambda _: {})
@@ -86,6 +89,11 @@ class Imitator:
             )
         if self.needs_model and context.model is None:
             raise FbilError(f"{self.name} imitates through an FB model: pass the model folder")
+        if self.needs_goal_model and context.goal_model is None:
+            raise FbilError(
+                f"{self.name} imitates through a pre-trained goal model: pass --goal-model DIR "
+                "(train one with `fbil pretrain-goal`)"
+            )
         if self.budgets and context.budget not in self.budgets:
             raise FbilError(
                 f"unknown budget {context.budget!r} for {self.name}; valid: "

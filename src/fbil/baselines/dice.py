@@ -1,0 +1,195 @@
+"""What DemoDICE, SMODICE and LobsDICE share: a discriminator-derived log-ratio reward, a
+convex dual over a state function nu on the unsupervised dataset D, and weighted BC.
+
+1. Reward. ORIL's discriminator (`oril.py`: BCE, expert 1 and dataset 0, with a gradient
+   penalty of Table 2's weight for the method and domain) on the method's input x, then
+   r(x) = log D(x) - log(1 - D(x)), the logit: at the optimum log(rho_E(x) / rho_D(x))
+   (App. B). x = (s, a) for DemoDICE, s' for SMODICE, (s, s') for LobsDICE.
+2. Dual. With e(s, a, s') = r + gamma * discount * nu(s') - nu(s) and y = e / (1 + alpha),
+   nu minimises over D's transitions and initial states s0 (the dataset's episode starts)
+
+     kl:   L(nu) = (1 - gamma) E_s0[nu(s0)] + (1 + alpha) log E_D[exp(y)]
+     chi2: L(nu) = (1 - gamma) E_s0[nu(s0)] + (1 + alpha) E_D[f*_+(y)],
+
+   f*_+ the conjugate of f(x) = (x - 1)^2 / 2 restricted to x >= 0:
+   f*_+(y) = w y - f(w), w = max(0, y + 1) (= y^2/2 + y where y >= -1). Both are the dual
+   of max_d E_d[r] - (1 + alpha) D_f(d || d_D) over d >= 0 satisfying the Bellman flow
+   constraints (f(x) = x log x for kl, with sum d = 1); for kl and r = log(rho_E / rho_D)
+   that is min_d KL(d || rho_E) + alpha KL(d || d_D). At the optimum, d = w d_D is an
+   occupancy.
+3. Policy. The stationary-distribution ratios w = exp(y) / E_D[exp(y)] (kl, normalised in
+   the minibatch) or w = max(0, y + 1) (chi2), held fixed, weight the Gaussian policy's BC:
+   L(pi) = -E_D[w log pi(a|s)] (the policy of `bc.py`: tanh mean, state-dependent log-std;
+   it plays its mean). nu and pi take one step each per minibatch.
+
+Sizes: networks of 256 units (paper: 1024); nu has no gradient penalty of its own.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import torch
+from torch.nn import functional as F
+
+from fbil.agents.td3 import _mlp
+from fbil.baselines.bc import gaussian_log_prob, mean_action_policy
+from fbil.baselines.common import (
+    TrainedPolicy,
+    Transitions,
+    dataset_rows,
+    paper_gamma,
+    trained_imitator,
+)
+from fbil.baselines.oril import Discriminator, DiscriminatorConfig, train_discriminator
+from fbil.errors import FbilError
+from fbil.imitation.demos import Demos
+from fbil.imitators.base import FitContext, Imitator
+
+DIVERGENCES = ("kl", "chi2")
+
+
+@dataclass(frozen=True)
+class DualConfig:
+    divergence: str = "kl"
+    alpha: float = 0.0  # weight of the divergence from the dataset's distribution
+    steps: int = 20_000
+    hidden: int = 256  # paper: 1024
+    batch_size: int = 512
+    lr: float = 1e-4
+
+    def __post_init__(self) -> None:
+        if self.divergence not in DIVERGENCES:
+            raise FbilError(f"unknown divergence {self.divergence!r}; valid: kl, chi2")
+
+
+@dataclass(frozen=True)
+class DiceConfig:
+    dual: DualConfig = field(default_factory=DualConfig)
+    discriminator: DiscriminatorConfig = field(default_factory=DiscriminatorConfig)
+
+
+def smoke(dual: DualConfig) -> DiceConfig:
+    """The smoke budget of a method whose cpu budget's dual is `dual`."""
+    return DiceConfig(
+        replace(dual, steps=20, hidden=32, batch_size=64),
+        DiscriminatorConfig(steps=20, hidden=32, batch_size=64),
+    )
+
+
+def chi2_conjugate(y: torch.Tensor) -> torch.Tensor:
+    """f*_+(y) for f(x) = (x - 1)^2 / 2 on x >= 0."""
+    w = F.relu(y + 1)
+    return w * y - 0.5 * (w - 1) ** 2
+
+
+def dual_loss(
+    nu0: torch.Tensor,
+    e: torch.Tensor,
+    gamma: float,
+    alpha: float,
+    divergence: str,
+) -> torch.Tensor:
+    """L(nu) of the module's docstring from nu at initial states `nu0` and the rows'
+    e = r + gamma * discount * nu(s') - nu(s)."""
+    y = e / (1 + alpha)
+    if divergence == "kl":
+        spread = torch.logsumexp(y, 0) - math.log(len(y))
+    else:
+        spread = chi2_conjugate(y).mean()
+    return (1 - gamma) * nu0.mean() + (1 + alpha) * spread
+
+
+def dice_weights(e: torch.Tensor, alpha: float, divergence: str) -> torch.Tensor:
+    """The ratios w = d / d_D of the rows, from their e (no gradient)."""
+    y = e.detach() / (1 + alpha)
+    if divergence == "kl":
+        return torch.softmax(y, 0) * len(y)
+    return F.relu(y + 1)
+
+
+def advantage(
+    nu: Callable[[torch.Tensor], torch.Tensor],
+    batch: Transitions,
+    reward: torch.Tensor,
+    gamma: float,
+) -> torch.Tensor:
+    """e = r + gamma * discount * nu(s') - nu(s); nu maps (B, d) states to (B, 1)."""
+    nu_s, nu_next = nu(batch.obs).squeeze(-1), nu(batch.next_obs).squeeze(-1)
+    return reward + gamma * batch.discount * nu_next - nu_s
+
+
+class DiceLearner:
+    """nu and the policy on standardised states, their optimisers and one joint update."""
+
+    def __init__(self, disc: Discriminator, dataset: Any, cfg: DualConfig) -> None:
+        self.disc, self.cfg, self.stats = disc, cfg, disc.stats
+        obs_dim, self.act_dim = dataset.observation.shape[1], dataset.action.shape[1]
+        self.gamma = paper_gamma(dataset.domain)
+        self.nu_net = _mlp(obs_dim, cfg.hidden, 1)
+        self.policy = _mlp(obs_dim, cfg.hidden, 2 * self.act_dim)
+        self.nu_opt = torch.optim.Adam(self.nu_net.parameters(), lr=cfg.lr)
+        self.policy_opt = torch.optim.Adam(self.policy.parameters(), lr=cfg.lr)
+
+    def nu(self, obs: torch.Tensor) -> torch.Tensor:
+        return self.nu_net((obs - self.stats[0]) / self.stats[1])
+
+    def update(self, batch: Transitions, starts: torch.Tensor) -> dict[str, float]:
+        """One step on L(nu), then one on the weighted BC loss L(pi)."""
+        assert batch.action is not None
+        cfg = self.cfg
+        with torch.no_grad():
+            reward = self.disc.logits(self.disc.features(batch))
+        e = advantage(self.nu, batch, reward, self.gamma)
+        loss = dual_loss(self.nu(starts), e, self.gamma, cfg.alpha, cfg.divergence)
+        self.nu_opt.zero_grad(set_to_none=True)
+        loss.backward()
+        self.nu_opt.step()
+        w = dice_weights(e, cfg.alpha, cfg.divergence)
+        out = self.policy((batch.obs - self.stats[0]) / self.stats[1])
+        p_loss = -(w * gaussian_log_prob(out, batch.action).sum(-1)).mean()
+        self.policy_opt.zero_grad(set_to_none=True)
+        p_loss.backward()
+        self.policy_opt.step()
+        return {"nu_loss": float(loss.detach()), "w_max": float(w.max()), "r": float(reward.mean())}
+
+
+def train_dice(
+    name: str, kind: str, demos: Demos, dataset: Any, cfg: DiceConfig, penalty: float, seed: int
+) -> TrainedPolicy:
+    """The discriminator on input `kind` ("sa", "s", "ss"; gradient penalty `penalty`), then
+    `cfg.dual.steps` joint nu and policy updates on minibatches of the dataset."""
+    disc_cfg = replace(cfg.discriminator, gradient_penalty=penalty)
+    disc = train_discriminator(kind, demos, dataset, disc_cfg, seed)
+    torch.manual_seed(seed)
+    gen = torch.Generator().manual_seed(seed + 1)
+    learner = DiceLearner(disc, dataset, cfg.dual)
+    starts = torch.from_numpy(dataset.observation[dataset.episode_start])
+    n_data, batch_size = int(dataset.num_transitions), cfg.dual.batch_size
+    last: dict[str, float] = {}
+    for _ in range(cfg.dual.steps):
+        rows = torch.randint(0, n_data, (batch_size,), generator=gen)
+        s0 = starts[torch.randint(0, len(starts), (batch_size,), generator=gen)]
+        last = learner.update(dataset_rows(dataset, rows), s0)
+    info = {k: round(v, 5) for k, v in last.items()}
+    return mean_action_policy(name, learner.policy, learner.stats, learner.act_dim, info)
+
+
+def dice_imitator(
+    name: str, kind: str, principle: str, dual: DualConfig, penalty: dict[str, float]
+) -> Imitator:
+    """A DICE method: its discriminator input `kind`, its dual's settings (the `cpu` budget;
+    `smoke` shrinks them) and its discriminator's gradient penalty per domain (Table 2)."""
+    budgets = {"cpu": DiceConfig(dual), "smoke": smoke(dual)}
+
+    def fit(demos: Demos, context: FitContext) -> TrainedPolicy:
+        data, cfg = context.dataset, budgets[context.budget]
+        weight = penalty.get(data.domain, 10.0)
+        return train_dice(name, kind, demos, data, cfg, weight, context.seed)
+
+    return trained_imitator(
+        name, principle, fit, budgets, needs_actions=kind == "sa", needs_dataset=True
+    )

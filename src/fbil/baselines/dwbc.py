@@ -1,0 +1,140 @@
+"""DWBC (Xu et al. 2022): discriminator-weighted behaviour cloning on the demonstrations
+(E) and the unsupervised dataset (O), as the paper's App. B: the discriminator sees the
+policy being learnt.
+
+A discriminator d(s, a, log pi(a|s)) = sigmoid(l), its third input the per-dimension
+log-likelihoods of the current policy (no gradient to pi), clipped to [-20, 10] and scaled to
+[0, 1], is trained with DWBC's positive-unlabeled loss
+
+  L_d = eta E_E[-log d] + E_O[-log(1 - d)] - eta E_E[-log(1 - d)]
+      = -eta E_E[l] + E_O[softplus(l)],
+
+and, in the same step, the Gaussian policy of `bc.py` (tanh mean, state-dependent log-std)
+with DWBC's weighted BC objective, d clipped to [0.1, 0.9] and held fixed:
+
+  L_pi = alpha E_E[-log pi(a|s)] - E_E[-log pi(a|s) eta / (d (1 - d))]
+         + E_O[-log pi(a|s) / (1 - d)].
+
+Dataset pairs the discriminator finds expert-like (d -> 1) weigh 1/(1 - d), up to 10. DWBC's
+defaults: alpha = 7.5, eta = 0.5. The policy plays its mean action."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import torch
+from torch.nn import functional as F
+
+from fbil.agents.td3 import _mlp
+from fbil.baselines.bc import gaussian_log_prob, mean_action_policy
+from fbil.baselines.common import (
+    TrainedPolicy,
+    Transitions,
+    demo_transitions,
+    standardiser,
+    trained_imitator,
+)
+from fbil.baselines.offline_td3 import MixedSampler
+from fbil.imitation.demos import Demos
+from fbil.imitators.base import FitContext
+
+LOG_PI_RANGE = (-20.0, 10.0)  # DWBC's clip of the discriminator's log pi input
+D_CLIP = (0.1, 0.9)  # DWBC's clip of d in the policy weights
+
+
+@dataclass(frozen=True)
+class DWBCConfig:
+    steps: int = 20_000
+    hidden: int = 256  # paper: 1024
+    batch_size: int = 512  # expert rows and as many dataset rows
+    lr: float = 1e-4
+    alpha: float = 7.5
+    eta: float = 0.5
+
+
+BUDGETS = {
+    "cpu": DWBCConfig(),
+    "smoke": DWBCConfig(steps=20, hidden=32, batch_size=64),
+}
+
+
+def discriminator_loss(logit_e: torch.Tensor, logit_o: torch.Tensor, eta: float) -> torch.Tensor:
+    """L_d of the module's docstring, from the logits l of expert and dataset rows."""
+    return -eta * logit_e.mean() + F.softplus(logit_o).mean()
+
+
+def policy_weights(
+    d_e: torch.Tensor, d_o: torch.Tensor, alpha: float, eta: float
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """The weights of -log pi in L_pi: alpha - eta / (d (1 - d)) on expert rows and
+    1 / (1 - d) on dataset rows, d clipped to `D_CLIP`."""
+    d_e, d_o = d_e.clamp(*D_CLIP), d_o.clamp(*D_CLIP)
+    return alpha - eta / (d_e * (1 - d_e)), 1 / (1 - d_o)
+
+
+class DWBC:
+    """The policy and discriminator networks, their optimisers and one joint update."""
+
+    def __init__(self, stats: torch.Tensor, act_dim: int, cfg: DWBCConfig) -> None:
+        obs_dim = stats.shape[1]
+        self.stats, self.act_dim, self.cfg = stats, act_dim, cfg
+        self.policy = _mlp(obs_dim, cfg.hidden, 2 * act_dim)
+        self.disc = _mlp(obs_dim + 2 * act_dim, cfg.hidden, 1)
+        self.policy_opt = torch.optim.Adam(self.policy.parameters(), lr=cfg.lr)
+        self.disc_opt = torch.optim.Adam(self.disc.parameters(), lr=cfg.lr)
+
+    def norm(self, obs: torch.Tensor) -> torch.Tensor:
+        return (obs - self.stats[0]) / self.stats[1]
+
+    def log_prob(self, rows: Transitions) -> torch.Tensor:
+        assert rows.action is not None
+        return gaussian_log_prob(self.policy(self.norm(rows.obs)), rows.action)
+
+    def logits(self, rows: Transitions, log_prob: torch.Tensor) -> torch.Tensor:
+        """l(s, a, log pi(a|s)), the log-likelihoods clipped and scaled to [0, 1]."""
+        assert rows.action is not None
+        low, high = LOG_PI_RANGE
+        scaled = (log_prob.detach().clamp(low, high) - low) / (high - low)
+        return self.disc(torch.cat([self.norm(rows.obs), rows.action, scaled], -1)).squeeze(-1)
+
+    def update(self, expert: Transitions, data: Transitions) -> dict[str, float]:
+        """One discriminator step (L_d), then one policy step (L_pi)."""
+        lp_e, lp_o = self.log_prob(expert), self.log_prob(data)
+        l_e, l_o = self.logits(expert, lp_e), self.logits(data, lp_o)
+        d_loss = discriminator_loss(l_e, l_o, self.cfg.eta)
+        self.disc_opt.zero_grad(set_to_none=True)
+        d_loss.backward()
+        self.disc_opt.step()
+        w_e, w_o = policy_weights(
+            torch.sigmoid(l_e.detach()), torch.sigmoid(l_o.detach()), self.cfg.alpha, self.cfg.eta
+        )
+        p_loss = -(w_e * lp_e.sum(-1)).mean() - (w_o * lp_o.sum(-1)).mean()
+        self.policy_opt.zero_grad(set_to_none=True)
+        p_loss.backward()
+        self.policy_opt.step()
+        return {"d_loss": float(d_loss.detach()), "p_loss": float(p_loss.detach())}
+
+
+def train_dwbc(expert: Transitions, dataset: Any, cfg: DWBCConfig, seed: int) -> TrainedPolicy:
+    """DWBC for `cfg.steps` updates on `cfg.batch_size` expert and dataset rows each."""
+    torch.manual_seed(seed)
+    gen = torch.Generator().manual_seed(seed)
+    model = DWBC(standardiser(dataset.observation, 1e-3), dataset.action.shape[1], cfg)
+    sample = MixedSampler(dataset, expert, 2 * cfg.batch_size, 0.5, gen)
+    last: dict[str, float] = {}
+    for _ in range(cfg.steps):
+        batch = sample()
+        last = model.update(batch.select(batch.expert), batch.select(~batch.expert))
+    info = {k: round(v, 5) for k, v in last.items()}
+    return mean_action_policy("dwbc", model.policy, model.stats, model.act_dim, info)
+
+
+def fit(demos: Demos, context: FitContext) -> TrainedPolicy:
+    expert = demo_transitions(demos)
+    return train_dwbc(expert, context.dataset, BUDGETS[context.budget], context.seed)
+
+
+IMITATOR = trained_imitator(
+    "dwbc", "behavioral cloning (weighted)", fit, BUDGETS, needs_actions=True, needs_dataset=True
+)

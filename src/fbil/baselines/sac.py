@@ -1,0 +1,144 @@
+"""A compact offline SAC (Haarnoja et al. 2018): twin critics with Polyak targets, a
+tanh-Gaussian actor and a learned (or fixed) temperature, on standardised states.
+
+For a batch (s, a, r, s', discount), with a' ~ pi(.|s') and a~ ~ pi(.|s) reparametrised:
+  y      = r + gamma * discount * (min_i Q'_i(s', a') - alpha * log pi(a'|s'))
+  critic = sum_i mean (Q_i(s, a) - y)^2
+  actor  = mean (alpha * log pi(a~|s) - min_i Q_i(s, a~))
+  temp.  = -mean log_alpha * (log pi(a~|s) + target_entropy)   (target_entropy = -act_dim)
+then the targets move by Polyak averaging. The networks are App. D's MLPs (`_mlp`).
+`SAC.soft_value` and the separate critic and actor steps let IQ-Learn swap in its own
+critic loss; SQIL uses `update` as is.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import torch
+from torch import nn
+from torch.nn import functional as F
+
+from fbil.agents.td3 import _mlp
+from fbil.baselines.bc import LOG_STD
+from fbil.baselines.common import Transitions, paper_gamma, standardiser
+from fbil.baselines.offline_td3 import MixedSampler
+
+
+@dataclass(frozen=True)
+class SACConfig:
+    """Table 2's common settings (batch 512, Adam 1e-4, target momentum 0.99); width and
+    steps shrunk for CPUs (paper: 1024 units)."""
+
+    steps: int = 30_000
+    hidden: int = 256
+    batch_size: int = 512
+    lr: float = 1e-4
+    tau: float = 0.01
+    temperature: float | None = None  # None: learned from `init_temperature`
+    init_temperature: float = 0.1
+
+
+class SAC:
+    def __init__(self, dataset: Any, cfg: SACConfig, seed: int) -> None:
+        torch.manual_seed(seed)
+        obs_dim, act_dim = dataset.observation.shape[1], dataset.action.shape[1]
+        self.cfg, self.act_dim = cfg, act_dim
+        self.gamma = paper_gamma(dataset.domain)
+        self.stats = standardiser(dataset.observation, 1e-3)
+        self.actor = _mlp(obs_dim, cfg.hidden, 2 * act_dim)
+        self.critics = nn.ModuleList([_mlp(obs_dim + act_dim, cfg.hidden, 1) for _ in range(2)])
+        self.targets = copy.deepcopy(self.critics).requires_grad_(False)
+        start = cfg.temperature if cfg.temperature is not None else cfg.init_temperature
+        self.log_alpha = torch.tensor(math.log(start), requires_grad=cfg.temperature is None)
+        self.actor_opt = torch.optim.Adam(self.actor.parameters(), lr=cfg.lr)
+        self.critic_opt = torch.optim.Adam(self.critics.parameters(), lr=cfg.lr)
+        self.alpha_opt = torch.optim.Adam([self.log_alpha], lr=cfg.lr)
+        self.gen = torch.Generator().manual_seed(seed)
+
+    @property
+    def alpha(self) -> torch.Tensor:
+        return self.log_alpha.detach().exp()
+
+    def norm(self, obs: torch.Tensor) -> torch.Tensor:
+        return (obs - self.stats[0]) / self.stats[1]
+
+    def sample(self, obs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """a = tanh(u), u ~ N(mean(s), std(s)) reparametrised, and log pi(a|s) (B,)."""
+        out = self.actor(self.norm(obs))
+        mean, log_std = out[:, : self.act_dim], out[:, self.act_dim :].clamp(*LOG_STD)
+        eps = torch.randn(mean.shape, generator=self.gen)
+        u = mean + log_std.exp() * eps
+        gauss = -(0.5 * eps**2 + log_std + 0.5 * math.log(2 * math.pi))
+        squash = 2 * (math.log(2) - u - F.softplus(-2 * u))  # log(1 - tanh(u)^2)
+        return torch.tanh(u), (gauss - squash).sum(-1)
+
+    def q(self, nets: nn.ModuleList, obs: torch.Tensor, action: torch.Tensor) -> torch.Tensor:
+        x = torch.cat([self.norm(obs), action], -1)
+        return torch.cat([n(x) for n in nets], -1)  # (B, 2)
+
+    def soft_value(self, obs: torch.Tensor, nets: nn.ModuleList) -> torch.Tensor:
+        """V(s) = min_i Q_i(s, a) - alpha log pi(a|s), one a ~ pi (no actor gradient)."""
+        with torch.no_grad():
+            action, log_pi = self.sample(obs)
+        return self.q(nets, obs, action).min(-1).values - self.alpha * log_pi
+
+    def step(self, opt: torch.optim.Optimizer, loss: torch.Tensor) -> float:
+        opt.zero_grad(set_to_none=True)
+        loss.backward()
+        opt.step()
+        return float(loss.detach())
+
+    def actor_step(self, obs: torch.Tensor) -> dict[str, float]:
+        """The actor step, then the temperature's (if learned), then the targets'."""
+        action, log_pi = self.sample(obs)
+        q = self.q(self.critics, obs, action).min(-1).values
+        actor_loss = self.step(self.actor_opt, (self.alpha * log_pi - q).mean())
+        if self.cfg.temperature is None:
+            target = -float(self.act_dim)
+            self.step(self.alpha_opt, -(self.log_alpha * (log_pi.detach() + target)).mean())
+        with torch.no_grad():
+            for p, t in zip(self.critics.parameters(), self.targets.parameters(), strict=True):
+                t.lerp_(p, self.cfg.tau)
+        return {"actor_loss": actor_loss, "alpha": float(self.alpha)}
+
+    def update(self, batch: Transitions, reward: torch.Tensor) -> dict[str, float]:
+        """One soft Bellman critic step on `reward`, then `actor_step`."""
+        assert batch.action is not None
+        with torch.no_grad():
+            soft = self.soft_value(batch.next_obs, self.targets)
+            y = reward + self.gamma * batch.discount * soft
+        q = self.q(self.critics, batch.obs, batch.action)
+        critic_loss = self.step(self.critic_opt, ((q - y[:, None]) ** 2).mean(0).sum())
+        q_mean = float(q.detach().mean())
+        return {"critic_loss": critic_loss, "q": q_mean, **self.actor_step(batch.obs)}
+
+    @torch.no_grad()
+    def act(self, obs: np.ndarray) -> np.ndarray:
+        """The actor's mean action tanh(mean(s))."""
+        out = self.actor(self.norm(torch.as_tensor(obs, dtype=torch.float32)))
+        return torch.tanh(out[:, : self.act_dim]).numpy()
+
+    def state(self) -> dict[str, Any]:
+        return {"actor": self.actor.state_dict(), "obs_stats": self.stats}
+
+
+Update = Callable[[SAC, Transitions], dict[str, float]]  # one update on a minibatch
+
+
+def train_sac(
+    dataset: Any, update: Update, cfg: SACConfig, seed: int, expert: Transitions, ratio: float
+) -> tuple[SAC, dict[str, float]]:
+    """A SAC agent trained by `cfg.steps` calls of `update` on minibatches holding a share
+    `ratio` of expert rows; the agent and the last update's numbers."""
+    agent = SAC(dataset, cfg, seed)
+    sample = MixedSampler(dataset, expert, cfg.batch_size, ratio, agent.gen)
+    last: dict[str, float] = {}
+    for _ in range(cfg.steps):
+        last = update(agent, sample())
+    return agent, {k: round(v, 5) for k, v in last.items()}

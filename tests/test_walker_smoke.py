@@ -1,0 +1,142 @@
+"""The walker path end to end at smoke size (issue #21), through the command line as a user
+runs it: collect 2 RND episodes -> pretrain `smoke` -> a 20-step online expert -> its
+standard and shifted demonstrations -> imitate with the eight FB-IL methods -> evaluate 1
+episode -> a 1-job benchmark grid -> its report. Also the shifted-start construction on
+walker: a shifted demonstration starts where the expert's standard rollout from the same
+seed is at step 500 (paper App. E.5)."""
+
+from __future__ import annotations
+
+import json
+import math
+import shlex
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fbil.envs.locomotion import SHIFT_STEP
+from fbil.imitation import Demos
+
+TASK = "stand"
+EPISODE = 1000  # walker's episode length, every rollout below
+# `--methods all`: the paper's eight FB-IL methods.
+FB_IL = ("erfb", "rerfb", "bcfb", "fmfb", "dmfb", "bbellfb", "fblossfb", "goalfb")
+
+
+class Fbil:
+    """`fbil COMMAND` started in `cwd` (paths relative to it). Its output goes to files
+    under cwd/logs, so that commands can run side by side without blocking on a pipe."""
+
+    def __init__(self, cwd: Path, command: str) -> None:
+        self.command = command
+        logs = cwd / "logs"
+        logs.mkdir(exist_ok=True)
+        n = len(list(logs.glob("*.out")))  # commands started so far
+        self.out, self.err = logs / f"{n}.out", logs / f"{n}.err"
+        args = [sys.executable, "-m", "fbil", *shlex.split(command)]
+        with open(self.out, "w") as out, open(self.err, "w") as err:
+            self.proc = subprocess.Popen(args, cwd=cwd, stdout=out, stderr=err)
+
+    def result(self) -> str:
+        """Wait for the command; its stdout (the JSON object where --json is passed)."""
+        try:
+            code = self.proc.wait(timeout=300)
+        finally:
+            self.proc.kill()  # a no-op once it has exited
+        stderr = self.err.read_text()[-3000:]
+        assert code == 0, f"fbil {self.command} failed:\n{stderr}"
+        return self.out.read_text()
+
+
+def fbil(cwd: Path, command: str) -> str:
+    return Fbil(cwd, command).result()
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A folder with the dataset D, the model M, the expert E and its demos (2 each); the
+    expert trains while the data is collected and the model pre-trained."""
+    cwd = tmp_path_factory.mktemp("walker")
+    # A smoke expert: 10 random-action steps, then a TD3 update per step (and two
+    # 10-episode evaluations, the bulk of its time).
+    tiny = "--steps 20 --start-steps 10 --eval-every 20"
+    expert = Fbil(cwd, f"expert walker {TASK} --mode online --out E {tiny}")
+    collect = "collect walker --explorer rnd --episodes 2 --out D --num-envs 2 --agents 1"
+    collected = json.loads(fbil(cwd, f"{collect} --json"))
+    assert collected["episodes"] == 2 and collected["transitions"] == 2 * EPISODE
+    fbil(cwd, "pretrain walker --data D --preset smoke --out M")
+    expert.result()
+    shifted = Fbil(cwd, "demos E --episodes 2 --out shifted.npz --start shifted")
+    fbil(cwd, "demos E --episodes 2 --out demos.npz")
+    shifted.result()
+    return cwd
+
+
+def test_each_stage_writes_what_the_next_one_reads(run: Path) -> None:
+    assert len(list((run / "D" / "buffer").glob("*_1000.npz"))) == 2
+    assert (run / "M" / "model.safetensors").is_file()
+    config = json.loads((run / "M" / "config.json").read_text())
+    assert config["model"]["obs_dim"] == 24 and config["model"]["act_dim"] == 6
+    expert = json.loads((run / "E" / "expert.json").read_text())
+    assert (expert["domain"], expert["task"], expert["mode"]) == ("walker", TASK, "online")
+    assert expert["steps"] == 20 and math.isfinite(expert["return_mean"])
+    for name, start in (("demos.npz", "standard"), ("shifted.npz", "shifted")):
+        demos = Demos.load(run / name)
+        assert demos.metadata["domain"] == "walker" and demos.metadata["start"] == start
+        assert len(demos.trajectories) == 2
+        assert all(t.observation.shape == (EPISODE + 1, 24) for t in demos.trajectories)
+        assert np.isfinite(demos.metadata["returns"]).all()
+
+
+def test_shifted_demos_start_at_step_500_of_the_experts_standard_rollout(run: Path) -> None:
+    """Both demo files roll the same expert out from the same seeds, so the standard
+    demonstration is the expert's standard rollout the shifted starts are taken from."""
+    standard = Demos.load(run / "demos.npz").trajectories
+    shifted = Demos.load(run / "shifted.npz").trajectories
+    for std, sh in zip(standard, shifted, strict=True):
+        assert std.physics is not None and sh.physics is not None
+        np.testing.assert_array_equal(sh.physics[0], std.physics[SHIFT_STEP])
+        np.testing.assert_array_equal(sh.observation[0], std.observation[SHIFT_STEP])
+        assert not np.array_equal(sh.physics[0], std.physics[0])  # not the standard start
+    # The two seeds' walkers are in different places at step 500: starts pair by seed.
+    assert not np.array_equal(shifted[0].physics[0], shifted[1].physics[0])
+
+
+def test_imitate_gives_a_policy_per_fb_il_method(run: Path) -> None:
+    out = json.loads(fbil(run, "imitate M demos.npz --methods all --out P --json"))
+    assert sorted(out["methods"]) == sorted(FB_IL)
+    for m in FB_IL:
+        assert math.isfinite(out["methods"][m]["seconds"])
+        saved = json.loads((run / "P" / f"{m}.json").read_text())
+        assert saved["method"] == m and np.isfinite(saved["z"]).all()
+
+
+def test_evaluate_scores_one_episode_per_method(run: Path) -> None:
+    out = json.loads(fbil(run, "evaluate M demos.npz --methods erfb,goalfb --episodes 1 --json"))
+    expert = Demos.load(run / "demos.npz").metadata["return_mean"]
+    assert (out["task"], out["episodes"], out["k"]) == (TASK, 1, 1)
+    assert out["expert_return"] == pytest.approx(expert)
+    assert set(out["methods"]) == {"erfb", "goalfb"}
+    for r in out["methods"].values():
+        assert math.isfinite(r["return_mean"]) and r["return_mean"] >= 0
+        assert r["score"] == pytest.approx(r["return_mean"] / expert)
+
+
+def test_a_one_job_benchmark_and_its_report(run: Path) -> None:
+    (run / "DD").mkdir()
+    shutil.copy(run / "demos.npz", run / "DD" / f"{TASK}.npz")
+    grid = f"--tasks {TASK} --methods erfb --draws 1 --episodes 1"
+    fbil(run, f"benchmark --domain walker --model M --demos DD {grid} --out res.jsonl --quiet")
+    (row,) = [json.loads(line) for line in (run / "res.jsonl").read_text().splitlines()]
+    assert (row["domain"], row["task"], row["method"], row["draw"]) == ("walker", TASK, "erfb", 0)
+    assert len(row["returns"]) == 1 and math.isfinite(row["returns"][0])
+    fbil(run, "report res.jsonl --out R")
+    text = (run / "R" / "report.md").read_text()
+    assert text.startswith("# fbil benchmark report: walker")
+    assert "| erfb | reward inference |" in text
+    assert "(987.5)" in text and "(721.7)" in text  # the paper's walker stand: expert, ERFB
+    assert (run / "R" / f"trajectories_{TASK}.png").stat().st_size > 1000
