@@ -7,7 +7,6 @@ runs on both tabular representations: B(s) = e_s (diagonal: every matrix commute
 B(s) = Q e_s (dense: order, transpose and elementwise-for-matrix bugs show)."""
 
 import math
-from collections.abc import Iterator
 
 import numpy as np
 import pytest
@@ -19,19 +18,7 @@ from fbil.imitation.methods import bc, bellman, matching
 from fbil.imitation.methods.reward import erfb, rerfb
 from tests.imitation.tabular import TabularFB
 
-
-@pytest.fixture(autouse=True)
-def float64() -> Iterator[None]:
-    """Exact comparisons in double precision, restored afterwards for other tests."""
-    previous = torch.get_default_dtype()
-    torch.set_default_dtype(torch.float64)
-    yield
-    torch.set_default_dtype(previous)
-
-
-@pytest.fixture(params=["diagonal", "dense"])
-def fb(request: pytest.FixtureRequest) -> TabularFB:
-    return TabularFB(n_states=6, n_actions=3, gamma=0.8, seed=0, dense=request.param == "dense")
+pytestmark = pytest.mark.usefixtures("float64")
 
 
 def expert_batch(fb: TabularFB, z_expert: torch.Tensor) -> tuple[DemoBatch, torch.Tensor]:

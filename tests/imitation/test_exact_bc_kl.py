@@ -4,8 +4,6 @@ BC (7): -E_{rho_e} ln pi_z(a_t | s_t); KL (57): -E_{rho_e} sum_k gamma^k
 ln F(s_t, z)^T B(s_{t+k+1}), whose expectation is E_{rho_e} KL(M^e(s) || M^z(s)) up to a
 z-independent constant (Theorem 6), with F^T B = M / rho from the closed-form M."""
 
-from collections.abc import Iterator
-
 import numpy as np
 import pytest
 import torch
@@ -15,18 +13,7 @@ from fbil.imitation.core import DemoBatch, FBLike, prepare
 from fbil.imitation.methods import bc, kl
 from tests.imitation.tabular import TabularFB
 
-
-@pytest.fixture(autouse=True)
-def float64() -> Iterator[None]:
-    previous = torch.get_default_dtype()
-    torch.set_default_dtype(torch.float64)
-    yield
-    torch.set_default_dtype(previous)
-
-
-@pytest.fixture(params=["diagonal", "dense"])
-def fb(request: pytest.FixtureRequest) -> TabularFB:
-    return TabularFB(n_states=6, n_actions=3, gamma=0.8, seed=0, dense=request.param == "dense")
+pytestmark = pytest.mark.usefixtures("float64")
 
 
 def random_zs(fb: TabularFB, n: int = 4) -> list[torch.Tensor]:

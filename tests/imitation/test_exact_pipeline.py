@@ -2,8 +2,6 @@
 at the ERFB z, and each demonstration counts equally whatever its length (paper,
 footnote 3: sample a trajectory, then a state in it)."""
 
-from collections.abc import Iterator
-
 import numpy as np
 import pytest
 import torch
@@ -14,20 +12,9 @@ from fbil.imitation.methods import bc, bellman, kl, matching
 from fbil.imitation.methods.reward import erfb, rerfb
 from tests.imitation.tabular import TabularFB
 
+pytestmark = pytest.mark.usefixtures("float64")
+
 GRADIENT_METHODS = [name for name, m in METHODS.items() if m.gradient]
-
-
-@pytest.fixture(autouse=True)
-def float64() -> Iterator[None]:
-    previous = torch.get_default_dtype()
-    torch.set_default_dtype(torch.float64)
-    yield
-    torch.set_default_dtype(previous)
-
-
-@pytest.fixture(params=["diagonal", "dense"])
-def fb(request: pytest.FixtureRequest) -> TabularFB:
-    return TabularFB(n_states=6, n_actions=3, gamma=0.8, seed=0, dense=request.param == "dense")
 
 
 def demo_arrays(fb: TabularFB) -> tuple[list[np.ndarray], list[np.ndarray]]:
