@@ -176,3 +176,34 @@ def test_one_spelling_per_option_and_every_default_in_help() -> None:
                 assert f"(default: {a.default})" in text, f"{name} {a.option_strings}"
         if "--threads" in options:  # several fbil processes must not fight over the cores
             assert parser.get_default("threads") == 1
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["imitate", "no-model", "{demos}", "--methods", "bc", "--k", "0"], "--k must be >= 1"),
+        (
+            ["pretrain-goal", "point_mass_maze", "--data", "x", "--out", "{out}", "--set"],
+            "'abc' is not a valid number",
+        ),
+    ],
+)
+def test_bad_values_are_one_line_errors(
+    args: list[str], message: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import numpy as np
+
+    from fbil.cli import main
+    from fbil.imitation import Demos, from_arrays
+
+    rng = np.random.default_rng(0)
+    obs = [rng.uniform(-0.2, 0.2, (11, 4)).astype(np.float32)]
+    demos = from_arrays(obs, [rng.uniform(-1, 1, (10, 2)).astype(np.float32)])
+    Demos(demos.trajectories, {"domain": "point_mass_maze", "task": "square"}).save(
+        tmp_path / "d.npz"
+    )
+    filled = [a.format(demos=tmp_path / "d.npz", out=tmp_path / "out") for a in args]
+    extra = ["--budget", "smoke"] if args[0] == "imitate" else ["epsilon=abc"]
+    assert main([*filled, *extra]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("fbil: error:") and message in lines[0]

@@ -176,7 +176,7 @@ def _parse_setting(item: str, current: Any, value: str) -> Any:
             return value.lower() in ("true", "1")
         return float(value) if current is None else type(current)(value)
     except ValueError:
-        kind = type(current).__name__
+        kind = "number" if current is None else type(current).__name__
         raise FbilError(f"--set {item!r}: {value!r} is not a valid {kind}") from None
 
 
@@ -325,6 +325,8 @@ def _cmd_imitate(args: argparse.Namespace) -> int:
 
     demos = Demos.load(args.demos)
     if args.k is not None:
+        if args.k < 1:
+            raise FbilError(f"--k must be >= 1, got {args.k}")
         demos = demos.select(range(min(args.k, len(demos))))
     selection = resolve(args.methods)
     context = _fit_context(args, selection.names, demos)
@@ -735,7 +737,8 @@ def _add_training_inputs(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--data",
         default=None,
-        help="unsupervised dataset folder, for methods that train on it (td3il, oril*)",
+        help="unsupervised dataset folder, for methods that train on it (the offline-IL "
+        "baselines but bc)",
     )
     p.add_argument(
         "--budget",

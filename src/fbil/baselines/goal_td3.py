@@ -310,11 +310,7 @@ class GoalTrackingPolicy:
 
 
 def fit(demos: Demos, context: FitContext) -> GoalTrackingPolicy:
-    model: GoalModel = context.goal_model
-    want = demos.metadata.get("domain")
-    if want and want != model.domain:
-        raise FbilError(f"the goal model is for {model.domain}, the demonstrations for {want}")
-    demos.validate(model.config.obs_dim, model.config.act_dim, source="demos")
+    model: GoalModel = context.goal_model  # its domain and sizes: `Imitator.check`
     # Goal tracking follows one trajectory, the first, as GOALFB.
     return GoalTrackingPolicy(model, demos.trajectories[0].observation)
 

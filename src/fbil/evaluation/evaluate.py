@@ -180,6 +180,8 @@ def evaluate(
     Methods the demos cannot serve (no actions) are skipped when named by a group ('all',
     a family) or with `skip_unfit`, else refused."""
     selection = resolve(methods)
+    if episodes < 1:  # before any method trains (a baseline's fit takes minutes)
+        raise FbilError(f"--episodes must be >= 1, got {episodes}")
     domain, task = demos_task(demos, model)
     expert = expert_return(demos) if expert is None else float(expert)
     if expert <= 0:

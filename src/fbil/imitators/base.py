@@ -110,6 +110,8 @@ class Imitator:
         self.require(context)
         if self.needs_dataset:
             check_dataset(demos, context.dataset)
+        if self.needs_goal_model:
+            check_goal_model(demos, context.goal_model)
 
     def fit(self, demos: Demos, context: FitContext) -> Fitted:
         """Check, then fit and time: the seconds are the time to policy."""
@@ -129,3 +131,12 @@ def check_dataset(demos: Demos, dataset: Any) -> None:
         )
     width = int(dataset.observation.shape[1])
     demos.validate(width, int(dataset.action.shape[1]), source="demos")
+
+
+def check_goal_model(demos: Demos, goal_model: Any) -> None:
+    """The goal model must be of the demonstrations' domain (and sizes): checked with the
+    other methods' inputs, before any of them trains."""
+    want = demos.metadata.get("domain")
+    if want and want != goal_model.domain:
+        raise FbilError(f"the goal model is for {goal_model.domain}, the demonstrations for {want}")
+    demos.validate(goal_model.config.obs_dim, goal_model.config.act_dim, source="demos")
