@@ -207,3 +207,35 @@ def test_bad_values_are_one_line_errors(
     assert main([*filled, *extra]) == 2
     lines = capsys.readouterr().err.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("fbil: error:") and message in lines[0]
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["demo", "--methods", "td3il"], "fbil demo runs the shipped FB model's methods"),
+        (["pretrain", "walker", "--data", "x", "--out", "{out}", "--steps", "0"], "steps must be"),
+        (["pretrain-goal", "walker", "--data", "x", "--out", "{out}", "--steps", "0"], "steps"),
+    ],
+)
+def test_out_of_range_requests_are_refused_before_work(
+    args: list[str], message: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from fbil.cli import main
+
+    assert main([a.format(out=tmp_path / "out") for a in args]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("fbil: error:") and message in lines[0]
+    assert not (tmp_path / "out").exists()
+
+
+def test_report_refuses_results_that_mix_budgets(tmp_path: Path) -> None:
+    from fbil.errors import FbilError
+    from fbil.evaluation.report import summarise
+
+    row = {"domain": "point_mass_maze", "demo_set": "standard", "k": 1, "method": "bc"}
+    rows = [
+        {**row, "task": "loop", "draw": 0, "score": 0.5, "budget": "cpu"},
+        {**row, "task": "loop", "draw": 0, "score": 0.1, "budget": "smoke"},
+    ]
+    with pytest.raises(FbilError, match="several budgets of bc"):
+        summarise(rows)

@@ -469,6 +469,11 @@ def _print_scores(out: dict[str, Any]) -> None:
         print(f"{m:<10}skipped: {why}")
 
 
+def _names(comma_list: str) -> list[str]:
+    """The names of a comma list, spaces around them dropped ("walk, run" -> walk, run)."""
+    return [n.strip() for n in comma_list.split(",") if n.strip()] or [comma_list]
+
+
 def _cmd_benchmark(args: argparse.Namespace) -> int:
     from tqdm.auto import tqdm
 
@@ -478,7 +483,7 @@ def _cmd_benchmark(args: argparse.Namespace) -> int:
     from fbil.fb.train import git_commit
 
     spec = get_domain(args.domain)
-    tasks = spec.task_names if args.tasks == "all" else args.tasks.split(",")
+    tasks = spec.task_names if args.tasks == "all" else _names(args.tasks)
     for t in tasks:
         get_task(args.domain, t)
     jobs = make_jobs(

@@ -68,6 +68,8 @@ class GoalTD3Config:
     log_every: int = 1000
 
     def __post_init__(self) -> None:
+        if self.steps < 1:
+            raise FbilError(f"steps must be >= 1, got {self.steps}")
         if not 0.0 <= self.her_ratio <= 1.0:
             raise FbilError(f"her_ratio must be in [0, 1], got {self.her_ratio}")
         if (self.epsilon is not None and self.epsilon <= 0) or self.epsilon_steps <= 0:

@@ -97,8 +97,12 @@ class SAC:
     def actor_step(self, obs: torch.Tensor) -> dict[str, float]:
         """The actor step, then the temperature's (if learned), then the targets'."""
         action, log_pi = self.sample(obs)
-        q = self.q(self.critics, obs, action).min(-1).values
-        actor_loss = self.step(self.actor_opt, (self.alpha * log_pi - q).mean())
+        self.critics.requires_grad_(False)  # no critic weight gradients only to drop them
+        try:
+            q = self.q(self.critics, obs, action).min(-1).values
+            actor_loss = self.step(self.actor_opt, (self.alpha * log_pi - q).mean())
+        finally:
+            self.critics.requires_grad_(True)
         if self.cfg.temperature is None:
             target = -float(self.act_dim)
             self.step(self.alpha_opt, -(self.log_alpha * (log_pi.detach() + target)).mean())

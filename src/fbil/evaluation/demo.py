@@ -60,7 +60,14 @@ def run_demo(
     from fbil.evaluation.evaluate import evaluate
     from fbil.fb.model import FBModel
     from fbil.imitation.demos import Demos
+    from fbil.imitators.registry import get_imitator, resolve
 
+    trained = [m for m in resolve(methods).names if not get_imitator(m).needs_model]
+    if trained:
+        raise FbilError(
+            f"fbil demo runs the shipped FB model's methods, not {', '.join(trained)} (trained "
+            "on a dataset or another model): use `fbil evaluate ... --data DIR`"
+        )
     root = Path(root) if root is not None else artifacts_root()
     if demo_tasks(task, root) != [task]:
         raise FbilError(f"run_demo takes one task, got {task!r}; loop over demo_tasks(...)")

@@ -47,9 +47,17 @@ def summarise(rows: Sequence[dict[str, Any]]) -> dict[str, Any]:
     cells: dict[tuple[str, int], dict[str, dict[str, dict[int, dict[str, Any]]]]] = defaultdict(
         lambda: defaultdict(lambda: defaultdict(dict))
     )
+    budgets: dict[str, set[str]] = defaultdict(set)
     for r in rows:
+        budgets[r["method"]].add(str(r.get("budget")))
         if "score" in r:
             cells[(r["demo_set"], r["k"])][r["method"]][r["task"]][r["draw"]] = r
+    mixed = sorted(m for m, b in budgets.items() if len(b) > 1)
+    if mixed:
+        raise FbilError(
+            f"the results hold several budgets of {', '.join(mixed)}; report one budget per "
+            "results file (run `fbil benchmark` with a separate --out per budget)"
+        )
     settings = {}
     for setting, per_method in cells.items():
         methods = {}

@@ -74,6 +74,10 @@ class FBTrainConfig:
     freeze_b_step: int = 0
 
     def __post_init__(self) -> None:
+        if self.steps < 1 or self.batch_size < 2:
+            raise FbilError(
+                f"steps must be >= 1 and batch_size >= 2 (got {self.steps}, {self.batch_size})"
+            )
         if self.precision not in ("fp32", "bf16"):
             raise FbilError(f"unknown precision {self.precision!r}; valid: fp32, bf16")
         if self.target_heads not in ("min", "mean"):
