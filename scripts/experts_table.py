@@ -1,7 +1,9 @@
 """Write experts.json (expert returns over the committed standard-start demos, next to the
-paper's Table 5 expert row) and the manifest of a maze demos folder.
+paper's expert row of Tables 5-7) and the manifest of a demos folder (its name is the
+domain); tasks without a demo file yet are left out.
 
     python scripts/experts_table.py artifacts/demos/point_mass_maze runs/experts/point_mass_maze
+    python scripts/experts_table.py artifacts/demos/walker runs/experts_online/walker
 
 Each task's expert is the folder of EXPERTS named in its demos' `source`, followed back
 through `--init` to the expert it was fine-tuned from; a task whose expert folder is not
@@ -56,12 +58,36 @@ def _provenance(experts: Path, source: str) -> dict[str, Any] | None:
     }
 
 
+COMMANDS = {
+    "point_mass_maze": (
+        "scripts/maze_experts.sh DATA runs/experts/point_mass_maze DEMOS 30000 1 (offline TD3, "
+        "n-step 10; with ONLINE_STEPS=N each offline expert is then fine-tuned online for N "
+        "steps and the demos come from it: 20 standard-start demos with --seed 0, 10 "
+        "shifted-start demos); then python scripts/experts_table.py "
+        "artifacts/demos/point_mass_maze runs/experts/point_mass_maze"
+    ),
+    "walker": (
+        "scripts/walker_experts.sh runs/experts_online/walker artifacts/demos/walker 1 (online "
+        "TD3, n-step 3, TASKS/PRECISION/STEPS_<task> per expert as recorded in each chain's "
+        "command; 20 standard-start demos with --seed 0, 10 shifted-start demos); then python "
+        "scripts/experts_table.py artifacts/demos/walker runs/experts_online/walker"
+    ),
+}
+DATA = {
+    "point_mass_maze": "datasets/point_mass_maze/rnd_uniform (408 episodes)",
+    "walker": "none (online TD3 in the environment)",
+}
+
+
 def main(demos_dir: str, experts_dir: str) -> None:
-    paper = PAPER_RETURNS["point_mass_maze"]["expert"]
+    domain = Path(demos_dir).name
+    paper = PAPER_RETURNS[domain]["expert"]
     table = Path(demos_dir) / "experts.json"
     previous = json.loads(table.read_text())["tasks"] if table.is_file() else {}
     tasks, made_here = {}, {}
     for task in sorted(paper):
+        if not (Path(demos_dir) / f"{task}.npz").is_file():
+            continue
         demos = Demos.load(Path(demos_dir) / f"{task}.npz")
         made = _provenance(Path(experts_dir), demos.metadata.get("source", ""))
         if made is None and task in previous:
@@ -96,11 +122,7 @@ def main(demos_dir: str, experts_dir: str) -> None:
         )
     write_manifest(
         demos_dir,
-        "scripts/maze_experts.sh DATA runs/experts/point_mass_maze DEMOS 30000 1 (offline TD3, "
-        "n-step 10; with ONLINE_STEPS=N each offline expert is then fine-tuned online for N "
-        "steps and the demos come from it: 20 standard-start demos with --seed 0, 10 "
-        "shifted-start demos); then python scripts/experts_table.py "
-        "artifacts/demos/point_mass_maze runs/experts/point_mass_maze",
+        COMMANDS[domain],
         0,
         round(sum(m["wall_seconds"] for m in made_here.values()), 1),
         git_commit(),
@@ -108,7 +130,7 @@ def main(demos_dir: str, experts_dir: str) -> None:
             "made_in_this_run": made_here,
             "kept_from_the_previous_table": kept,
             "previous_manifests": history,
-            "data": "datasets/point_mass_maze/rnd_uniform (408 episodes)",
+            "data": DATA[domain],
         },
     )
 

@@ -25,5 +25,5 @@ for task in $TASKS; do
   fi
   [ -f "$DEMOS/$task.npz" ] || fbil demos "$out" --episodes 20 --out "$DEMOS/$task.npz" --seed 0
   [ -f "$DEMOS/${task}_shifted.npz" ] || \
-    fbil demos "$out" --episodes 10 --out "$DEMOS/${task}_shifted.npz" --start shifted --seed 0
+    fbil demos "$out" --episodes 10 --out "$DEMOS/${task}_shifted.npz" --starts shifted --seed 0
 done

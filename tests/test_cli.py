@@ -168,7 +168,7 @@ def test_one_spelling_per_option_and_every_default_in_help() -> None:
     for name, parser in sub.choices.items():
         actions = [a for a in parser._actions if a.option_strings]
         options = {o for a in actions for o in a.option_strings}
-        old = {"--method", "--demos-per-run", "--repetitions", "--task"} & options
+        old = {"--method", "--demos-per-run", "--repetitions", "--task", "--start"} & options
         assert not old, f"{name}: {old}"
         text = " ".join(parser.format_help().split())
         for a in actions:

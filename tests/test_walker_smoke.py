@@ -70,7 +70,7 @@ def run(tmp_path_factory: pytest.TempPathFactory) -> Path:
     assert collected["episodes"] == 2 and collected["transitions"] == 2 * EPISODE
     fbil(cwd, "pretrain walker --data D --preset smoke --out M")
     expert.result()
-    shifted = Fbil(cwd, "demos E --episodes 2 --out shifted.npz --start shifted")
+    shifted = Fbil(cwd, "demos E --episodes 2 --out shifted.npz --starts shifted")
     fbil(cwd, "demos E --episodes 2 --out demos.npz")
     shifted.result()
     return cwd

@@ -404,13 +404,13 @@ def _cmd_expert(args: argparse.Namespace) -> int:
 def _cmd_demos(args: argparse.Namespace) -> int:
     from fbil.agents.expert import make_demos
 
-    demos = make_demos(args.expert_dir, args.episodes, args.out, start=args.start, seed=args.seed)
+    demos = make_demos(args.expert_dir, args.episodes, args.out, start=args.starts, seed=args.seed)
     meta = demos.metadata
     if args.json:
         print(json.dumps({"out": args.out, **meta}))
     else:
         print(
-            f"{len(demos)} demonstrations of {meta['domain']}/{meta['task']} ({args.start} "
+            f"{len(demos)} demonstrations of {meta['domain']}/{meta['task']} ({args.starts} "
             f"start) in {args.out}: return {meta['return_mean']:.1f} ± {meta['return_std']:.1f}"
         )
     return 0
@@ -819,7 +819,9 @@ def _add_demos(sub: Any) -> None:
     p.add_argument("expert_dir")
     p.add_argument("--episodes", type=int, required=True, help="demonstrations to record")
     p.add_argument("--out", required=True, help="demo file (.npz)")
-    p.add_argument("--start", default="standard", help="standard or shifted (App. E.5)")
+    p.add_argument(
+        "--starts", default="standard", help="where episodes start: standard or shifted (App. E.5)"
+    )
 
 
 def _add_evaluate(sub: Any) -> None:

@@ -498,7 +498,7 @@ def make_demos(
     agent, meta = load_expert(expert_dir)
     domain, task = meta["domain"], meta["task"]
     if start not in ("standard", "shifted"):
-        raise FbilError(f"unknown --start {start!r}; valid: standard, shifted")
+        raise FbilError(f"unknown --starts {start!r}; valid: standard, shifted")
     seeds = [seed * 1_000_003 + 200_000 + i for i in range(episodes)]
     starts = shifted_starts(domain, agent, task, seeds) if start == "shifted" else None
     ep = BatchedEnv(domain, task, episodes).rollout(ExpertPolicy(agent), seeds, start_states=starts)
