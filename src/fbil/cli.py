@@ -885,7 +885,7 @@ def _add_demo(sub: Any) -> None:
 def _add_report(sub: Any) -> None:
     about = "Markdown + figures from benchmark results"
     p = _command(sub, "report", _cmd_report, about, with_json=False, outputs=_OUT_FOLDER)
-    p.add_argument("results", nargs="+", help="results file(s) of one domain")
+    p.add_argument("results", nargs="+", help="results file(s), one domain per file")
     p.add_argument("--out", required=True, help="report folder")
 
 

@@ -1,10 +1,13 @@
 """`fbil report`: a Markdown report with figures from a benchmark's results.jsonl.
 
-Sections: mean imitation score per method next to the paper (with 95% confidence
-intervals over demo draws), per-task returns next to the paper's Table 5, time to policy
-next to Table 8, the demo-shift and K comparisons when the results hold them, and the
-demonstration against each method's rollout in the domain's picture (the maze: paths, as
-the paper's Fig. 6; locomotion: frame strips).
+Sections per domain: mean imitation score per method next to the paper (with 95%
+confidence intervals over demo draws), per-task returns of every method (FB-IL and
+baselines) next to the paper's Tables 5-7, the score by family and IL principle (the
+paper's Fig. 3), time to policy of every method on a log scale next to Table 8 (Fig. 2),
+the demo-shift and K comparisons when the results hold them, and the demonstration against
+each method's rollout in the domain's picture (the maze: paths, as the paper's Fig. 6;
+locomotion: frame strips). Results files of several domains (one domain per file): one such
+report per domain and a report over domains (the paper's Fig. 1).
 """
 
 from __future__ import annotations
@@ -20,20 +23,36 @@ import numpy as np
 from fbil.checkpoint import atomic_write_text
 from fbil.errors import FbilError
 from fbil.evaluation.benchmark import read_results
+from fbil.evaluation.families import (
+    duration,
+    groups,
+    groups_figure,
+    groups_table,
+    mean_over_domains,
+    order,
+    over_domains,
+    time_figure,
+    time_table,
+)
 from fbil.evaluation.paper import PAPER_RETURNS, PAPER_SCORES, PAPER_TIMES
-from fbil.imitators import imitators, principle_of
-
-
-def _order(methods: set[str]) -> list[str]:
-    """Registry order (FB-IL's main methods, the others, then the baselines), then any
-    name no longer registered."""
-    known = [m for m in imitators() if m in methods]
-    return known + sorted(methods - set(known))
+from fbil.imitators import family_of, principle_of
 
 
 def _ci95(values: Sequence[float]) -> float:
     v = np.asarray(values, float)
     return float(1.96 * v.std(ddof=1) / math.sqrt(len(v))) if len(v) > 1 else float("nan")
+
+
+def _check_budgets(rows: Sequence[dict[str, Any]]) -> None:
+    budgets: dict[str, set[str]] = defaultdict(set)
+    for r in rows:
+        budgets[r["method"]].add(str(r.get("budget")))
+    mixed = sorted(m for m, b in budgets.items() if len(b) > 1)
+    if mixed:
+        raise FbilError(
+            f"the results hold several budgets of {', '.join(mixed)}; report one budget per "
+            "results file (run `fbil benchmark` with a separate --out per budget)"
+        )
 
 
 def summarise(rows: Sequence[dict[str, Any]]) -> dict[str, Any]:
@@ -44,51 +63,49 @@ def summarise(rows: Sequence[dict[str, Any]]) -> dict[str, Any]:
             f"the results mix domains ({', '.join(domains)}); report one domain per "
             "results file (run `fbil benchmark` with a separate --out per domain)"
         )
+    _check_budgets(rows)
     cells: dict[tuple[str, int], dict[str, dict[str, dict[int, dict[str, Any]]]]] = defaultdict(
         lambda: defaultdict(lambda: defaultdict(dict))
     )
-    budgets: dict[str, set[str]] = defaultdict(set)
     for r in rows:
-        budgets[r["method"]].add(str(r.get("budget")))
         if "score" in r:
             cells[(r["demo_set"], r["k"])][r["method"]][r["task"]][r["draw"]] = r
-    mixed = sorted(m for m, b in budgets.items() if len(b) > 1)
-    if mixed:
-        raise FbilError(
-            f"the results hold several budgets of {', '.join(mixed)}; report one budget per "
-            "results file (run `fbil benchmark` with a separate --out per budget)"
-        )
-    settings = {}
-    for setting, per_method in cells.items():
-        methods = {}
-        for method, per_task in per_method.items():
-            tasks = sorted(per_task)
-            draws = sorted(set.intersection(*(set(per_task[t]) for t in tasks)))
-            # Task-averaged score per draw: the repetition unit for the interval.
-            per_draw = [np.mean([per_task[t][d]["score"] for t in tasks]) for d in draws]
-            methods[method] = {
-                "score": float(np.mean(per_draw)) if per_draw else float("nan"),
-                "ci95": _ci95(per_draw),
-                "draws": len(draws),
-                "tasks": {
-                    t: {
-                        "return_mean": float(
-                            np.mean([c["return_mean"] for c in per_task[t].values()])
-                        ),
-                        "return_std": float(
-                            np.std([c["return_mean"] for c in per_task[t].values()])
-                        ),
-                        "score": float(np.mean([c["score"] for c in per_task[t].values()])),
-                        "expert_return": float(next(iter(per_task[t].values()))["expert_return"]),
-                    }
-                    for t in tasks
-                },
-                "seconds_median": float(
-                    np.median([c["seconds"] for t in tasks for c in per_task[t].values()])
-                ),
-            }
-        settings[f"{setting[0]}, K={setting[1]}"] = methods
+    settings = {
+        f"{setting[0]}, K={setting[1]}": {
+            method: _method_summary(method, per_task) for method, per_task in per_method.items()
+        }
+        for setting, per_method in cells.items()
+    }
     return {"domain": domains[0] if domains else None, "settings": settings}
+
+
+def _method_summary(method: str, per_task: dict[str, dict[int, dict[str, Any]]]) -> dict[str, Any]:
+    """One method in one setting: its score over tasks and draws, per-task returns, the
+    median time to policy over its jobs, and its family and IL principle."""
+    tasks = sorted(per_task)
+    draws = sorted(set.intersection(*(set(per_task[t]) for t in tasks)))
+    # Task-averaged score per draw: the repetition unit for the interval.
+    per_draw = [np.mean([per_task[t][d]["score"] for t in tasks]) for d in draws]
+    jobs = [c for t in tasks for c in per_task[t].values()]
+    return {
+        "score": float(np.mean(per_draw)) if per_draw else float("nan"),
+        "ci95": _ci95(per_draw),
+        "draws": len(draws),
+        "tasks": {
+            t: {
+                "return_mean": float(np.mean([c["return_mean"] for c in per_task[t].values()])),
+                "return_std": float(np.std([c["return_mean"] for c in per_task[t].values()])),
+                "score": float(np.mean([c["score"] for c in per_task[t].values()])),
+                "expert_return": float(next(iter(per_task[t].values()))["expert_return"]),
+            }
+            for t in tasks
+        },
+        "seconds_median": float(np.median([c["seconds"] for c in jobs])),
+        "jobs": len(jobs),
+        # Older results lines carry no family; the registry knows it.
+        "family": jobs[0].get("family") or family_of(method) or "–",
+        "principle": jobs[0].get("principle") or principle_of(method),
+    }
 
 
 def _fmt(x: float, digits: int = 1) -> str:
@@ -100,7 +117,7 @@ def _score_figure(summary: dict[str, Any], setting: str, out: Path) -> Path:
 
     plt = _pyplot()
     methods = summary["settings"][setting]
-    names = _order(set(methods))
+    names = order(set(methods))
     paper = PAPER_SCORES.get(summary["domain"], {})
     x = np.arange(len(names))
     fig, ax = plt.subplots(figsize=(1.0 + 0.8 * len(names), 3.2), dpi=120)
@@ -112,20 +129,6 @@ def _score_figure(summary: dict[str, Any], setting: str, out: Path) -> Path:
     ax.set_ylabel("imitation score (%)")
     ax.set_title(f"{summary['domain']}: {setting}", fontsize=9)
     ax.legend(fontsize=7)
-    return _save(fig, out)
-
-
-def _time_figure(summary: dict[str, Any], setting: str, out: Path) -> Path:
-    from fbil.envs.render import _pyplot, _save
-
-    plt = _pyplot()
-    methods = summary["settings"][setting]
-    names = _order(set(methods))
-    fig, ax = plt.subplots(figsize=(1.0 + 0.7 * len(names), 3.0), dpi=120)
-    ax.bar(names, [methods[m]["seconds_median"] for m in names], color="tab:green")
-    ax.set_yscale("log")
-    ax.set_ylabel("time to policy (s, median)")
-    ax.tick_params(axis="x", labelsize=7)
     return _save(fig, out)
 
 
@@ -152,7 +155,7 @@ def _trajectory_figures(domain: str, rows: Sequence[dict[str, Any]], out_dir: Pa
             demo = Demos.load(demo_files[task]).trajectories[0]
         except (FbilError, OSError):
             continue  # the demo file is not on this machine: no picture for this task
-        rollouts = {m: by_task[task][m] for m in _order(set(by_task[task]))}
+        rollouts = {m: by_task[task][m] for m in order(set(by_task[task]))}
         out = out_dir / f"trajectories_{task}.png"
         path = pictures.imitation(
             ImitationPicture(demo.observation, demo.physics, rollouts, out, task)
@@ -199,7 +202,8 @@ def _limits_section(
         "How the maze model's zero-shot returns move with training length, n-step targets "
         "and B's learning rate: docs/fb-maze-notes.md in the fbil repository.",
         "",
-        "| task | expert | paper expert | expert / paper | zero-shot return | best FB-IL return |",
+        "| task | expert | paper expert | expert / paper | zero-shot return "
+        "| best imitation return (method) |",
         "|---|---|---|---|---|---|",
     ]
     good = []
@@ -225,7 +229,7 @@ def _limits_section(
             "| method | score, all tasks (%) | score, tasks with a ≥ 85 % expert (%) |",
             "|---|---|---|",
         ]
-        for m in _order(set(methods)):
+        for m in order(set(methods)):
             per = methods[m]["tasks"]
             sub = [per[t]["score"] for t in good if t in per]
             lines.append(
@@ -236,14 +240,53 @@ def _limits_section(
 
 
 def write_report(results: str | Path | Sequence[str | Path], out_dir: str | Path) -> Path:
-    """Write OUT/report.md (+ PNGs) from one or more results files of one domain."""
+    """Write OUT/report.md (+ PNGs) from results files, each of one domain. Files of several
+    domains: each domain's report in OUT/<domain>/, and OUT/report.md over the domains."""
     files = [results] if isinstance(results, (str, Path)) else list(results)
-    rows = [r for f in files for r in read_results(f, repair=False)]
-    if not rows:
-        raise FbilError(f"no results in {', '.join(map(str, files))}; run `fbil benchmark` first")
-    summary = summarise(rows)
+    by_domain = _rows_by_domain(files)
+    _check_budgets([r for _, rows in by_domain.values() for r in rows])
+    summaries = {domain: summarise(rows) for domain, (_, rows) in by_domain.items()}
     out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
+    if len(by_domain) == 1:
+        ((domain, (domain_files, rows)),) = by_domain.items()
+        return _domain_report(domain_files, rows, summaries[domain], out_dir)
+    for domain, (domain_files, rows) in by_domain.items():
+        _domain_report(domain_files, rows, summaries[domain], out_dir / domain)
+    return _over_domains_report(files, summaries, out_dir)
+
+
+def _rows_by_domain(
+    files: Sequence[str | Path],
+) -> dict[str, tuple[list[str | Path], list[dict[str, Any]]]]:
+    """Domain -> (its files, their rows), in the order given; a file must hold one domain."""
+    grouped: dict[str, tuple[list[str | Path], list[dict[str, Any]]]] = {}
+    for f in files:
+        rows = read_results(f, repair=False)
+        domains = sorted({r["domain"] for r in rows})
+        if len(domains) > 1:
+            raise FbilError(
+                f"the results in {f} mix domains ({', '.join(domains)}); report one domain "
+                "per results file (run `fbil benchmark` with a separate --out per domain)"
+            )
+        if domains:
+            entry = grouped.setdefault(domains[0], ([], []))
+            entry[0].append(f)
+            entry[1].extend(rows)
+    if not grouped:
+        raise FbilError(f"no results in {', '.join(map(str, files))}; run `fbil benchmark` first")
+    return grouped
+
+
+def _main_setting(summary: dict[str, Any]) -> str | None:
+    """The standard K=1 setting when there is one (the paper's figures), else the first."""
+    main = next((s for s in summary["settings"] if s.startswith("standard, K=1")), None)
+    return main or next(iter(summary["settings"]), None)
+
+
+def _domain_report(
+    files: Sequence[str | Path], rows: Sequence[dict[str, Any]], summary: dict[str, Any], out: Path
+) -> Path:
+    out.mkdir(parents=True, exist_ok=True)
     domain = summary["domain"]
     commits = sorted({r.get("commit", "unknown") for r in rows})
     lines = [
@@ -257,25 +300,102 @@ def write_report(results: str | Path | Sequence[str | Path], out_dir: str | Path
         "",
     ]
     for setting, methods in summary["settings"].items():
-        lines += _setting_section(summary, setting, methods, out_dir)
-    # Time to policy, from the standard K=1 setting when there is one.
-    main = next((s for s in summary["settings"] if s.startswith("standard, K=1")), None)
-    main = main or next(iter(summary["settings"]), None)
+        lines += _setting_section(summary, setting, methods, out)
+    main = _main_setting(summary)
     if main:
-        lines += _time_section(summary, main, out_dir)
+        lines += _groups_section(summary, main, out)
+        lines += _time_section(summary, main, out)
         lines += _limits_section(rows, summary["settings"][main], domain, main)
         lines += _other_settings(summary, main)
-    lines += _trajectory_figures(domain, rows, out_dir)
+    lines += _trajectory_figures(domain, rows, out)
+    report = out / "report.md"
+    atomic_write_text(report, "\n".join(lines) + "\n")
+    return report
+
+
+def _groups_section(summary: dict[str, Any], main: str, out_dir: Path) -> list[str]:
+    """The paper's Fig. 3 for this domain: mean score by family and IL principle."""
+    cells = groups(summary["settings"][main], summary["domain"])
+    fig = groups_figure(cells, f"{summary['domain']}: {main}", out_dir / "families.png")
+    return [
+        f"## Imitation score by family and IL principle ({main})",
+        "",
+        "As the paper's Fig. 3: each method's score (mean over tasks and draws), averaged "
+        "over the methods of a family and of one of the paper's IL principles (BC, reward, "
+        "FM/DM with the Bellman-gap methods, goal-based). Paper: the same mean over the "
+        "same methods, from Tables 5-7 (how many of them the paper reports, when not all).",
+        "",
+        *groups_table(cells),
+        "",
+        f"![by family and principle]({fig.name})",
+        "",
+    ]
+
+
+def _over_domains_report(
+    files: Sequence[str | Path], summaries: dict[str, dict[str, Any]], out_dir: Path
+) -> Path:
+    """OUT/report.md for several domains: links to each domain's report, the paper's Fig. 1
+    (score by family and principle, averaged over domains) and times per domain."""
+    mains = {d: m for d, s in summaries.items() if (m := _main_setting(s))}
+    per_domain = {d: groups(summaries[d]["settings"][m], d) for d, m in mains.items()}
+    fig = groups_figure(
+        mean_over_domains(per_domain), "over domains", out_dir / "families_over_domains.png"
+    )
+    lines = [
+        f"# fbil benchmark report: {', '.join(summaries)}",
+        "",
+        f"Results: {', '.join(str(f) for f in files)}. Each domain's report: "
+        + ", ".join(f"[{d}]({d}/report.md)" for d in summaries)
+        + ".",
+        "",
+        "## Over domains",
+        "",
+        "Score (%) by family and IL principle in each domain's standard K=1 setting (the "
+        "first setting where there is none), ours (the paper's for the same methods, from "
+        "Tables 5-7), and the mean over the domains that have the group, as the paper's "
+        "Fig. 1 averages over domains.",
+        "",
+        *over_domains(per_domain),
+        "",
+        f"![over domains]({fig.name})",
+        "",
+        *_times_over_domains(summaries, mains),
+    ]
     report = out_dir / "report.md"
     atomic_write_text(report, "\n".join(lines) + "\n")
     return report
+
+
+def _times_over_domains(summaries: dict[str, dict[str, Any]], mains: dict[str, str]) -> list[str]:
+    domains = list(mains)
+    found = {m: r for d in domains for m, r in summaries[d]["settings"][mains[d]].items()}
+    lines = [
+        "### Time to policy per domain (median over jobs)",
+        "",
+        "| method | family | " + " | ".join(domains) + " | paper, GPU (Table 8) |",
+        "|---|---|" + "---|" * (len(domains) + 1),
+    ]
+    for m in order(set(found)):
+        cells = [
+            duration(summaries[d]["settings"][mains[d]][m]["seconds_median"])
+            if m in summaries[d]["settings"][mains[d]]
+            else "–"
+            for d in domains
+        ]
+        lines.append(
+            f"| {m} | {found[m]['family']} | "
+            + " | ".join(cells)
+            + f" | {PAPER_TIMES.get(m, '–')} |"
+        )
+    return [*lines, ""]
 
 
 def _setting_section(
     summary: dict[str, Any], setting: str, methods: dict[str, Any], out_dir: Path
 ) -> list[str]:
     """Scores (table and figure), returns and per-task scores of one setting."""
-    names = _order(set(methods))
+    names = order(set(methods))
     paper_scores = PAPER_SCORES.get(summary["domain"], {})
     slug = setting.replace(", ", "_").replace("=", "")
     lines = [f"## Imitation score ({setting})", ""]
@@ -330,19 +450,22 @@ def _returns_table(
 
 
 def _time_section(summary: dict[str, Any], main: str, out_dir: Path) -> list[str]:
+    """The paper's Fig. 2 from our measurements: every method's median time to policy."""
     methods = summary["settings"][main]
-    fig = _time_figure(summary, main, out_dir / "time_to_policy.png")
+    names = order(set(methods))
+    title = f"{summary['domain']}: time to policy ({main})"
+    fig = time_figure(methods, names, title, out_dir / "time_to_policy.png")
     lines = [
         "## Time to policy",
         "",
-        "Median wall time of `imitate` per job (benchmark workers share the "
-        "machine; `benchmarks/time_to_policy.py` measures on a quiet one).",
+        f"Median over jobs ({main}) of the wall time from demonstrations in memory to a "
+        "policy (`Imitator.fit`), in the unit that suits it (baselines train for minutes, "
+        "FB-IL methods take milliseconds); benchmark workers share the machine, and "
+        "`benchmarks/time_to_policy.py` measures FB-IL on a quiet one. The paper's times "
+        "(Table 8, GPU, averaged over environments) are marked on the figure.",
         "",
-        "| method | fbil, CPU (s) | paper, GPU (Table 8) |",
-        "|---|---|---|",
+        *time_table(methods, names),
     ]
-    for m in _order(set(methods)):
-        lines.append(f"| {m} | {methods[m]['seconds_median']:.3f} | {PAPER_TIMES.get(m, '–')} |")
     return [*lines, "", f"![time to policy]({fig.name})", ""]
 
 
@@ -357,7 +480,7 @@ def _other_settings(summary: dict[str, Any], main: str) -> list[str]:
         "| method | " + " | ".join([main, *others]) + " |",
         "|---" * (len(others) + 2) + "|",
     ]
-    for m in _order(set(base)):
+    for m in order(set(base)):
         cells = [_fmt(100 * base[m])] + [
             _fmt(100 * summary["settings"][s][m]["score"]) if m in summary["settings"][s] else "–"
             for s in others

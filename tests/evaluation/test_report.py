@@ -1,0 +1,160 @@
+"""`fbil report`'s views by family and IL principle (the paper's Figs. 1 and 3), the
+baselines' per-task returns next to the paper's, time to policy (Fig. 2) and the report
+over domains, on synthetic results lines: no training, no rollouts."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from fbil.errors import FbilError
+from fbil.evaluation.families import groups
+from fbil.evaluation.paper import PAPER_SCORES
+from fbil.evaluation.report import summarise, write_report
+from fbil.imitators import family_of, principle_of
+
+EXPERT = 200.0
+
+
+def _rows(
+    domain: str, method: str, scores: dict[str, Sequence[float]], seconds: Sequence[float]
+) -> list[dict[str, Any]]:
+    """One results line per (task, draw), as `fbil benchmark` writes them (the fields the
+    report reads); `seconds` is consumed in order over the jobs."""
+    times = iter(seconds)
+    return [
+        {
+            "model": None,
+            "demos": f"nowhere/{task}.npz",
+            "domain": domain,
+            "task": task,
+            "demo_set": "standard",
+            "method": method,
+            "draw": draw,
+            "k": 1,
+            "episodes": 2,
+            "seed": 0,
+            "budget": "cpu" if family_of(method) == "offline-il" else None,
+            "expert_return": EXPERT,
+            "commit": "0123456789abcdef",
+            "family": family_of(method),
+            "principle": principle_of(method),
+            "return_mean": score * EXPERT,
+            "score": score,
+            "seconds": next(times),
+        }
+        for task, per_draw in scores.items()
+        for draw, score in enumerate(per_draw)
+    ]
+
+
+def _write(path: Path, rows: list[dict[str, Any]]) -> Path:
+    path.write_text("".join(json.dumps(r) + "\n" for r in rows))
+    return path
+
+
+# Maze: two tasks x two draws per method; each method's mean score is round.
+MAZE = {
+    "erfb": ({"loop": (0.4, 0.6), "square": (0.5, 0.5)}, (0.002, 0.003, 0.004, 0.1)),  # 50 %
+    "rerfb": ({"loop": (0.7, 0.7), "square": (0.7, 0.7)}, (0.01,) * 4),  # 70 %
+    "bcfb": ({"loop": (0.2, 0.2), "square": (0.4, 0.4)}, (30.0,) * 4),  # 30 %
+    "sqil": ({"loop": (0.9, 0.7), "square": (0.8, 0.8)}, (600.0, 900.0, 1200.0, 3e4)),  # 80 %
+    "td3il": ({"loop": (0.6, 0.6), "square": (0.6, 0.6)}, (800.0,) * 4),  # 60 %
+    "goal_td3": ({"loop": (0.9, 0.9), "square": (0.9, 0.9)}, (0.001,) * 4),  # 90 %
+}
+
+
+def _maze_rows() -> list[dict[str, Any]]:
+    return [r for m, (s, t) in MAZE.items() for r in _rows("point_mass_maze", m, s, t)]
+
+
+def test_family_and_principle_means_average_methods_over_tasks_and_draws() -> None:
+    summary = summarise(_maze_rows())
+    cells = groups(summary["settings"]["standard, K=1"], "point_mass_maze")
+    paper = PAPER_SCORES["point_mass_maze"]
+    reward = cells[("fb-il", "reward")]
+    assert reward["methods"] == ["erfb", "rerfb"]
+    assert reward["score"] == pytest.approx(60.0)  # (50 + 70) / 2
+    assert reward["paper"] == pytest.approx((paper["erfb"] + paper["rerfb"]) / 2)
+    assert cells[("fb-il", "all principles")]["score"] == pytest.approx(50.0)  # 50, 70, 30
+    assert cells[("fb-il", "BC")]["score"] == pytest.approx(30.0)
+    assert cells[("offline-il", "reward")]["score"] == pytest.approx(70.0)  # sqil 80, td3il 60
+    assert cells[("bfm", "goal-based")]["paper"] == pytest.approx(paper["goal_td3"])
+    assert set(cells) == {
+        ("fb-il", "reward"),
+        ("fb-il", "BC"),
+        ("fb-il", "all principles"),
+        ("offline-il", "reward"),
+        ("offline-il", "all principles"),
+        ("bfm", "goal-based"),
+        ("bfm", "all principles"),
+    }
+
+
+def test_domain_report_shows_families_baseline_returns_and_times(tmp_path: Path) -> None:
+    results = _write(tmp_path / "maze.jsonl", _maze_rows())
+    text = write_report(results, tmp_path / "report").read_text()
+    paper = PAPER_SCORES["point_mass_maze"]
+    # (a) the family / principle table, with the paper's mean of the same methods.
+    reward = (paper["erfb"] + paper["rerfb"]) / 2
+    assert f"| fb-il | reward | erfb, rerfb | 60.0 | {reward:.1f} |" in text
+    assert "| **fb-il** | **all principles** | erfb, rerfb, bcfb | **50.0** |" in text
+    assert (tmp_path / "report" / "families.png").stat().st_size > 1000
+    # (b) a baseline's per-task returns next to Table 5's (loop 741.0, square 694.5).
+    assert f"| sqil | {0.8 * EXPERT:.1f} (741.0) | {0.8 * EXPERT:.1f} (694.5) |" in text
+    assert f"| td3il | {0.6 * EXPERT:.1f} (752.2) | {0.6 * EXPERT:.1f} (244.3) |" in text
+    # (c) medians over jobs in a readable unit, with Table 8 beside; the log-scale figure.
+    assert "| sqil | offline-il | 17.5 min | 1050 | 4 | 10h18m |" in text
+    assert "| erfb | fb-il | 3.5 ms | 0.0035 | 4 | <5s |" in text
+    assert "| bcfb | fb-il | 30 s | 30 | 4 | 1m |" in text
+    assert (tmp_path / "report" / "time_to_policy.png").stat().st_size > 1000
+    assert "## Over domains" not in text
+
+
+def test_results_of_several_domains_add_a_report_over_domains(tmp_path: Path) -> None:
+    walker = {
+        "erfb": ({"run": (0.3, 0.3), "walk": (0.3, 0.3)}, (0.01,) * 4),  # 30 %
+        "td3il": ({"run": (0.5, 0.5), "walk": (0.5, 0.5)}, (900.0,) * 4),  # 50 %
+    }
+    walker_rows = [r for m, (s, t) in walker.items() for r in _rows("walker", m, s, t)]
+    files = [
+        _write(tmp_path / "maze.jsonl", _maze_rows()),
+        _write(tmp_path / "walker.jsonl", walker_rows),
+    ]
+    report = write_report(files, tmp_path / "report")
+    text = report.read_text()
+    assert report == tmp_path / "report" / "report.md"
+    assert "## Over domains" in text and "[walker](walker/report.md)" in text
+    # fb-il over both: maze 50 (erfb, rerfb, bcfb), walker 30 (erfb) -> 40.
+    maze = PAPER_SCORES["point_mass_maze"]
+    paper_maze = (maze["erfb"] + maze["rerfb"] + maze["bcfb"]) / 3
+    paper = (paper_maze + PAPER_SCORES["walker"]["erfb"]) / 2
+    line = next(x for x in text.splitlines() if x.startswith("| **fb-il** | **all principles**"))
+    assert f"| **40.0** ({paper:.1f}) over 2 |" in line
+    assert "| td3il | offline-il | 13.3 min | 15 min | 7h3m |" in text  # 800 s, 900 s
+    for domain in ("point_mass_maze", "walker"):
+        assert (
+            "# fbil benchmark report: " + domain
+            in (report.parent / domain / "report.md").read_text()
+        )
+        assert (report.parent / domain / "time_to_policy.png").is_file()
+    assert (report.parent / "families_over_domains.png").stat().st_size > 1000
+
+
+def test_budgets_of_one_method_must_agree_across_files_and_domains(tmp_path: Path) -> None:
+    walker_rows = _rows("walker", "td3il", {"run": (0.5,)}, (900.0,))
+    walker_rows[0]["budget"] = "smoke"
+    files = [
+        _write(tmp_path / "maze.jsonl", _maze_rows()),
+        _write(tmp_path / "walker.jsonl", walker_rows),
+    ]
+    with pytest.raises(FbilError, match="several budgets of td3il"):
+        write_report(files, tmp_path / "report")
+    assert not (tmp_path / "report").exists()
+    mixed = _write(tmp_path / "mixed.jsonl", _maze_rows() + walker_rows)
+    with pytest.raises(FbilError, match="mix domains"):
+        write_report(mixed, tmp_path / "report")
