@@ -545,7 +545,7 @@ def _cmd_demo(args: argparse.Namespace) -> int:
 def _cmd_report(args: argparse.Namespace) -> int:
     from fbil.evaluation.report import write_report
 
-    path = write_report(args.results, args.out)
+    path = write_report(args.results, args.out, args.budget_curve)
     print(f"report: {path}")
     return 0
 
@@ -748,7 +748,8 @@ def _add_training_inputs(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--budget",
         default="cpu",
-        help="training budget of methods that train: cpu, or smoke (seconds, for tests)",
+        help="training budget of methods that train: cpu, or smoke (seconds, for tests); "
+        "NAME@SCALE multiplies its gradient steps (cpu@0.5, cpu@2)",
     )
     p.add_argument(
         "--goal-model",
@@ -887,6 +888,12 @@ def _add_report(sub: Any) -> None:
     p = _command(sub, "report", _cmd_report, about, with_json=False, outputs=_OUT_FOLDER)
     p.add_argument("results", nargs="+", help="results file(s), one domain per file")
     p.add_argument("--out", required=True, help="report folder")
+    p.add_argument(
+        "--budget-curve",
+        default=None,
+        help="budget_curve.json of scripts/budget_curve.py (default: one next to a results "
+        "file, if any)",
+    )
 
 
 def build_parser() -> argparse.ArgumentParser:

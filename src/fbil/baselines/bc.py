@@ -18,6 +18,7 @@ from fbil.baselines.common import TrainedPolicy, demo_transitions, standardiser,
 from fbil.errors import FbilError
 from fbil.imitation.demos import Demos
 from fbil.imitators.base import FitContext
+from fbil.imitators.budgets import Budgets
 
 LOG_STD = (-5.0, 2.0)  # the Gaussian's log-std range
 
@@ -35,10 +36,10 @@ class BCConfig:
             raise FbilError(f"unknown BC loss {self.loss!r}; valid: mse, gaussian")
 
 
-BUDGETS = {
-    "cpu": BCConfig(),
-    "smoke": BCConfig(steps=50, hidden=32, batch_size=64),
-}
+BUDGETS = Budgets(
+    cpu=BCConfig(),
+    smoke=BCConfig(steps=50, hidden=32, batch_size=64),
+)
 
 
 def gaussian_log_prob(out: torch.Tensor, action: torch.Tensor) -> torch.Tensor:

@@ -15,6 +15,7 @@ import torch
 from fbil.checkpoint import save_state
 from fbil.imitation.demos import Demos
 from fbil.imitators.base import FitContext, Imitator, Policy
+from fbil.imitators.budgets import Budgets
 
 # Table 2: the discount of the IL baselines (0.98 in locomotion) and ORIL's gradient
 # penalty weight, per domain.
@@ -130,12 +131,14 @@ def trained_imitator(
     name: str,
     principle: str,
     fit: Callable[[Demos, FitContext], Policy],
-    budgets: dict[str, Any],
+    budgets: Budgets,
     needs_actions: bool,
     needs_dataset: bool,
 ) -> Imitator:
-    """An offline-IL imitator with named budgets; its results lines record the budget's
-    name and its whole configuration."""
+    """An offline-IL imitator with named budgets (`fit` reads its configuration as
+    `budgets[context.budget]`, which also resolves scaled specs such as 'cpu@0.5'); its
+    results lines record the budget's spec and its whole resolved configuration."""
+    assert isinstance(budgets, Budgets), "a baseline's budgets are a fbil.imitators.Budgets"
 
     def settings(context: FitContext) -> dict[str, Any]:
         return {"budget": context.budget, "config": asdict(budgets[context.budget])}

@@ -48,6 +48,7 @@ from fbil.baselines.oril import Discriminator, DiscriminatorConfig, train_discri
 from fbil.errors import FbilError
 from fbil.imitation.demos import Demos
 from fbil.imitators.base import FitContext, Imitator
+from fbil.imitators.budgets import Budgets
 
 DIVERGENCES = ("kl", "chi2")
 
@@ -183,7 +184,7 @@ def dice_imitator(
 ) -> Imitator:
     """A DICE method: its discriminator input `kind`, its dual's settings (the `cpu` budget;
     `smoke` shrinks them) and its discriminator's gradient penalty per domain (Table 2)."""
-    budgets = {"cpu": DiceConfig(dual), "smoke": smoke(dual)}
+    budgets = Budgets(cpu=DiceConfig(dual), smoke=smoke(dual))
 
     def fit(demos: Demos, context: FitContext) -> TrainedPolicy:
         data, cfg = context.dataset, budgets[context.budget]

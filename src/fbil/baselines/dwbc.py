@@ -38,6 +38,7 @@ from fbil.baselines.common import (
 from fbil.baselines.offline_td3 import MixedSampler
 from fbil.imitation.demos import Demos
 from fbil.imitators.base import FitContext
+from fbil.imitators.budgets import Budgets
 
 LOG_PI_RANGE = (-20.0, 10.0)  # DWBC's clip of the discriminator's log pi input
 D_CLIP = (0.1, 0.9)  # DWBC's clip of d in the policy weights
@@ -53,10 +54,10 @@ class DWBCConfig:
     eta: float = 0.5
 
 
-BUDGETS = {
-    "cpu": DWBCConfig(),
-    "smoke": DWBCConfig(steps=20, hidden=32, batch_size=64),
-}
+BUDGETS = Budgets(
+    cpu=DWBCConfig(),
+    smoke=DWBCConfig(steps=20, hidden=32, batch_size=64),
+)
 
 
 def discriminator_loss(logit_e: torch.Tensor, logit_o: torch.Tensor, eta: float) -> torch.Tensor:

@@ -26,6 +26,7 @@ from fbil.baselines.common import TrainedPolicy, Transitions, demo_transitions, 
 from fbil.baselines.sac import SAC, SACConfig, Update, train_sac
 from fbil.imitation.demos import Demos
 from fbil.imitators.base import FitContext
+from fbil.imitators.budgets import Budgets
 
 
 @dataclass(frozen=True)
@@ -35,10 +36,10 @@ class IQLearnConfig:
     expert_ratio: float = 0.5
 
 
-BUDGETS = {
-    "cpu": IQLearnConfig(SACConfig(steps=30_000, temperature=0.01)),
-    "smoke": IQLearnConfig(SACConfig(steps=20, hidden=32, batch_size=64, temperature=0.01)),
-}
+BUDGETS = Budgets(
+    cpu=IQLearnConfig(SACConfig(steps=30_000, temperature=0.01)),
+    smoke=IQLearnConfig(SACConfig(steps=20, hidden=32, batch_size=64, temperature=0.01)),
+)
 
 
 def iq_loss(

@@ -29,6 +29,7 @@ from fbil.baselines.common import (
 from fbil.baselines.offline_td3 import OfflineTD3Config, agent_state, train_offline_td3
 from fbil.imitation.demos import Demos
 from fbil.imitators.base import FitContext, Imitator
+from fbil.imitators.budgets import Budgets
 
 INPUTS = {"oril": "sa", "oril_o": "s", "oril_oo": "ss"}
 
@@ -48,13 +49,13 @@ class ORILConfig:
     discriminator: DiscriminatorConfig = field(default_factory=DiscriminatorConfig)
 
 
-BUDGETS = {
-    "cpu": ORILConfig(),
-    "smoke": ORILConfig(
+BUDGETS = Budgets(
+    cpu=ORILConfig(),
+    smoke=ORILConfig(
         OfflineTD3Config(steps=20, hidden=32, batch_size=64),
         DiscriminatorConfig(steps=20, hidden=32, batch_size=64),
     ),
-}
+)
 
 
 class Discriminator:

@@ -27,6 +27,7 @@ from fbil.baselines.common import TrainedPolicy, Transitions, trained_imitator
 from fbil.baselines.offline_td3 import OfflineTD3Config, agent_state, train_offline_td3
 from fbil.imitation.demos import Demos
 from fbil.imitators.base import FitContext
+from fbil.imitators.budgets import Budgets
 
 
 @dataclass(frozen=True)
@@ -39,10 +40,10 @@ class OTRConfig:
     batch_episodes: int = 64  # episodes of one length whose costs are computed together
 
 
-BUDGETS = {
-    "cpu": OTRConfig(),
-    "smoke": OTRConfig(OfflineTD3Config(steps=20, hidden=32, batch_size=64), iterations=20),
-}
+BUDGETS = Budgets(
+    cpu=OTRConfig(),
+    smoke=OTRConfig(OfflineTD3Config(steps=20, hidden=32, batch_size=64), iterations=20),
+)
 
 
 def cosine_cost(x: np.ndarray, y: np.ndarray) -> np.ndarray:

@@ -15,6 +15,7 @@ from fbil.baselines.sac import SAC, SACConfig, train_sac
 from fbil.baselines.td3il import labels
 from fbil.imitation.demos import Demos
 from fbil.imitators.base import FitContext
+from fbil.imitators.budgets import Budgets
 
 
 @dataclass(frozen=True)
@@ -23,10 +24,10 @@ class SQILConfig:
     expert_ratio: float = 0.5  # balanced sampling
 
 
-BUDGETS = {
-    "cpu": SQILConfig(SACConfig(steps=30_000)),
-    "smoke": SQILConfig(SACConfig(steps=20, hidden=32, batch_size=64)),
-}
+BUDGETS = Budgets(
+    cpu=SQILConfig(SACConfig(steps=30_000)),
+    smoke=SQILConfig(SACConfig(steps=20, hidden=32, batch_size=64)),
+)
 
 
 def sqil_update(agent: SAC, batch: Transitions) -> dict[str, float]:

@@ -17,6 +17,7 @@ from fbil.baselines.common import (
 from fbil.baselines.offline_td3 import OfflineTD3Config, agent_state, train_offline_td3
 from fbil.imitation.demos import Demos
 from fbil.imitators.base import FitContext
+from fbil.imitators.budgets import Budgets
 
 
 @dataclass(frozen=True)
@@ -25,10 +26,10 @@ class TD3ILConfig:
     expert_ratio: float = 0.002
 
 
-BUDGETS = {
-    "cpu": TD3ILConfig(OfflineTD3Config(steps=50_000)),
-    "smoke": TD3ILConfig(OfflineTD3Config(steps=20, hidden=32, batch_size=64)),
-}
+BUDGETS = Budgets(
+    cpu=TD3ILConfig(OfflineTD3Config(steps=50_000)),
+    smoke=TD3ILConfig(OfflineTD3Config(steps=20, hidden=32, batch_size=64)),
+)
 
 
 def labels(batch: Transitions) -> torch.Tensor:

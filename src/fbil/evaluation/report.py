@@ -4,10 +4,12 @@ Sections per domain: mean imitation score per method next to the paper (with 95%
 confidence intervals over demo draws), per-task returns of every method (FB-IL and
 baselines) next to the paper's Tables 5-7, the score by family and IL principle (the
 paper's Fig. 3), time to policy of every method on a log scale next to Table 8 (Fig. 2),
-the demo-shift and K comparisons when the results hold them, and the demonstration against
-each method's rollout in the domain's picture (the maze: paths, as the paper's Fig. 6;
-locomotion: frame strips). Results files of several domains (one domain per file): one such
-report per domain and a report over domains (the paper's Fig. 1).
+the baselines' score against training budget when a budget curve is there
+(`fbil.evaluation.budget_curve`), the demo-shift and K comparisons when the results hold
+them, and the demonstration against each method's rollout in the domain's picture (the
+maze: paths, as the paper's Fig. 6; locomotion: frame strips). Results files of several
+domains (one domain per file): one such report per domain and a report over domains (the
+paper's Fig. 1).
 """
 
 from __future__ import annotations
@@ -23,6 +25,7 @@ import numpy as np
 from fbil.checkpoint import atomic_write_text
 from fbil.errors import FbilError
 from fbil.evaluation.benchmark import read_results
+from fbil.evaluation.budget_curve import curve_section, find_curve, read_curve
 from fbil.evaluation.families import (
     duration,
     groups,
@@ -239,20 +242,46 @@ def _limits_section(
     return [*lines, ""]
 
 
-def write_report(results: str | Path | Sequence[str | Path], out_dir: str | Path) -> Path:
+def write_report(
+    results: str | Path | Sequence[str | Path],
+    out_dir: str | Path,
+    budget_curve: str | Path | None = None,
+) -> Path:
     """Write OUT/report.md (+ PNGs) from results files, each of one domain. Files of several
-    domains: each domain's report in OUT/<domain>/, and OUT/report.md over the domains."""
+    domains: each domain's report in OUT/<domain>/, and OUT/report.md over the domains.
+    `budget_curve` (default: a budget_curve.json next to a results file, if any): the
+    baselines' score against training budget, in the report of its domain."""
     files = [results] if isinstance(results, (str, Path)) else list(results)
     by_domain = _rows_by_domain(files)
     _check_budgets([r for _, rows in by_domain.values() for r in rows])
     summaries = {domain: summarise(rows) for domain, (_, rows) in by_domain.items()}
+    curve = _budget_curve(files, budget_curve, set(by_domain))
     out_dir = Path(out_dir)
     if len(by_domain) == 1:
         ((domain, (domain_files, rows)),) = by_domain.items()
-        return _domain_report(domain_files, rows, summaries[domain], out_dir)
+        return _domain_report(domain_files, rows, summaries[domain], out_dir, curve)
     for domain, (domain_files, rows) in by_domain.items():
-        _domain_report(domain_files, rows, summaries[domain], out_dir / domain)
+        _domain_report(domain_files, rows, summaries[domain], out_dir / domain, curve)
     return _over_domains_report(files, summaries, out_dir)
+
+
+def _budget_curve(
+    files: Sequence[str | Path], explicit: str | Path | None, domains: set[str]
+) -> dict[str, Any] | None:
+    """The budget curve to report (`find_curve`); one passed explicitly must be of a
+    reported domain."""
+    path = find_curve(files, explicit)
+    if path is None:
+        return None
+    curve = read_curve(path)
+    if curve.get("domain") not in domains:
+        if explicit is None:
+            return None  # a curve found next to the results, of another domain: not theirs
+        raise FbilError(
+            f"the budget curve {path} is of {curve.get('domain')}, the results of "
+            f"{', '.join(sorted(domains))}; pass a curve of a reported domain"
+        )
+    return curve
 
 
 def _rows_by_domain(
@@ -284,7 +313,11 @@ def _main_setting(summary: dict[str, Any]) -> str | None:
 
 
 def _domain_report(
-    files: Sequence[str | Path], rows: Sequence[dict[str, Any]], summary: dict[str, Any], out: Path
+    files: Sequence[str | Path],
+    rows: Sequence[dict[str, Any]],
+    summary: dict[str, Any],
+    out: Path,
+    curve: dict[str, Any] | None = None,
 ) -> Path:
     out.mkdir(parents=True, exist_ok=True)
     domain = summary["domain"]
@@ -305,6 +338,8 @@ def _domain_report(
     if main:
         lines += _groups_section(summary, main, out)
         lines += _time_section(summary, main, out)
+        if curve is not None and curve.get("domain") == domain:
+            lines += curve_section(curve, out)  # the baselines' score against budget
         lines += _limits_section(rows, summary["settings"][main], domain, main)
         lines += _other_settings(summary, main)
     lines += _trajectory_figures(domain, rows, out)

@@ -2,6 +2,7 @@
 behaviour foundation models) behind one interface and one registry of names."""
 
 from fbil.imitators.base import FAMILIES, FitContext, Fitted, Imitator, Policy
+from fbil.imitators.budgets import Budgets, parse_budget, scale_steps
 from fbil.imitators.registry import (
     Selection,
     family_of,
@@ -14,6 +15,7 @@ from fbil.imitators.registry import (
 
 __all__ = [
     "FAMILIES",
+    "Budgets",
     "FitContext",
     "Fitted",
     "Imitator",
@@ -23,6 +25,8 @@ __all__ = [
     "fit",
     "get_imitator",
     "imitators",
+    "parse_budget",
     "principle_of",
     "resolve",
+    "scale_steps",
 ]

@@ -18,6 +18,7 @@ import numpy as np
 
 from fbil.errors import FbilError
 from fbil.imitation.demos import Demos
+from fbil.imitators.budgets import parse_budget
 
 # fb-il: through a pre-trained FB model, in seconds; offline-il: trained from scratch on
 # the demos (and the unsupervised dataset); bfm: through another behaviour foundation model.
@@ -49,7 +50,7 @@ class FitContext:
 
     model: Any = None
     dataset: Any = None
-    budget: str = "cpu"
+    budget: str = "cpu"  # a named budget, or NAME@SCALE (fbil.imitators.budgets)
     seed: int = 0
     threads: int = 1
     optimiser: Any = None  # fb-il: the z optimiser (None: its default)
@@ -73,7 +74,9 @@ class Imitator:
     needs_dataset: bool = False
     needs_model: bool = False
     needs_goal_model: bool = False
-    budgets: Sequence[str] = ()  # named budgets of imitators that train
+    # Named budgets of imitators that train; a context's budget is one of them or a
+    # scaled one, NAME@SCALE (fbil.imitators.budgets).
+    budgets: Sequence[str] = ()
     # The settings a results line records for this imitator under `context`.
     settings: Callable[[FitContext], dict[str, Any]] = field(default=lambda _: {})
 
@@ -94,11 +97,8 @@ class Imitator:
                 f"{self.name} imitates through a pre-trained goal model: pass --goal-model DIR "
                 "(train one with `fbil pretrain-goal`)"
             )
-        if self.budgets and context.budget not in self.budgets:
-            raise FbilError(
-                f"unknown budget {context.budget!r} for {self.name}; valid: "
-                f"{', '.join(self.budgets)}"
-            )
+        if self.budgets:
+            parse_budget(context.budget, self.budgets, self.name)  # a name or NAME@SCALE
 
     def check(self, demos: Demos, context: FitContext) -> None:
         """One-line errors for what this imitator cannot work with."""

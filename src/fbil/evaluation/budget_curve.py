@@ -1,0 +1,193 @@
+"""Score against training budget (issue #22 item 2): a baseline run at scaled budgets
+(`cpu@0.25`, `cpu@0.5`, `cpu`, `cpu@2`, ...) on a few tasks, as points of median time to
+policy and mean imitation score, next to the paper's score on the same tasks.
+
+`scripts/budget_curve.py` runs the benchmark jobs and writes `budget_curve.json` (what
+`build_curve` returns) and `budget_curve.png`; `fbil report` adds the figure and a table
+when a `budget_curve.json` sits next to the results file or is passed with
+`--budget-curve`.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from fbil.errors import FbilError
+from fbil.evaluation.paper import PAPER_RETURNS, PAPER_SCORES
+from fbil.imitators.budgets import SEPARATOR, STEP_FIELD
+
+CURVE_FILE = "budget_curve.json"
+FIGURE_FILE = "budget_curve.png"
+
+
+def scaled_spec(budget: str, scale: float) -> str:
+    """The budget spec of `budget` scaled by `scale`: the bare name at scale 1."""
+    return budget if scale == 1 else f"{budget}{SEPARATOR}{scale:g}"
+
+
+def paper_level(domain: str, method: str, tasks: Sequence[str]) -> float | None:
+    """The paper's imitation score (%) of `method` averaged over `tasks` (its Tables 5-7
+    returns over its expert's); None when the paper has no row for it."""
+    returns = PAPER_RETURNS.get(domain, {})
+    ours, expert = returns.get(method, {}), returns.get("expert", {})
+    if not tasks or any(t not in ours or t not in expert for t in tasks):
+        return None
+    return float(np.mean([100 * ours[t] / expert[t] for t in tasks]))
+
+
+def step_counts(config: dict[str, Any], prefix: str = "") -> dict[str, int]:
+    """Every gradient-step count of a recorded budget configuration, by its path
+    ('td3', 'discriminator'; '' for a top-level `steps`)."""
+    found: dict[str, int] = {}
+    for key, value in config.items():
+        if isinstance(value, dict):
+            found.update(step_counts(value, f"{prefix}{key}."))
+        elif key == STEP_FIELD and isinstance(value, int):
+            found[prefix.rstrip(".")] = value
+    return found
+
+
+def curve_point(scale: float, spec: str, summary: dict[str, Any], config: Any) -> dict[str, Any]:
+    """One (method, scale) point from `report.summarise`'s summary of the method's jobs at
+    that budget and one of its results lines' recorded configuration."""
+    return {
+        "scale": scale,
+        "budget": spec,
+        "steps": step_counts(config) if isinstance(config, dict) else {},
+        "seconds_median": summary["seconds_median"],
+        "score_pct": 100 * summary["score"],
+        "ci95_pct": 100 * summary["ci95"],
+        "draws": summary["draws"],
+        "jobs": summary["jobs"],
+        "task_scores_pct": {t: 100 * r["score"] for t, r in summary["tasks"].items()},
+    }
+
+
+def build_curve(
+    domain: str, tasks: Sequence[str], settings: dict[str, Any], points: dict[str, list[Any]]
+) -> dict[str, Any]:
+    """The curve: `settings` (budget, draws, episodes, k, ...) and, per method, its points
+    in scale order (`points[method]`: `curve_point`s) with the paper's level."""
+    methods = {
+        m: {
+            "paper_score_pct": paper_level(domain, m, tasks),
+            "paper_domain_score_pct": PAPER_SCORES.get(domain, {}).get(m),
+            "points": sorted(found, key=lambda p: p["scale"]),
+        }
+        for m, found in points.items()
+    }
+    return {"domain": domain, "tasks": list(tasks), **settings, "methods": methods}
+
+
+def write_curve(curve: dict[str, Any], out_dir: str | Path) -> tuple[Path, Path]:
+    """OUT/budget_curve.json and OUT/budget_curve.png."""
+    from fbil.checkpoint import atomic_write_text
+
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    path = out_dir / CURVE_FILE
+    atomic_write_text(path, json.dumps(curve, indent=1) + "\n")
+    return path, curve_figure(curve, out_dir / FIGURE_FILE)
+
+
+def read_curve(path: str | Path) -> dict[str, Any]:
+    try:
+        curve = json.loads(Path(path).read_text())
+    except (OSError, ValueError) as exc:
+        raise FbilError(f"cannot read the budget curve {path}: {exc}") from None
+    if not isinstance(curve, dict) or not isinstance(curve.get("methods"), dict):
+        raise FbilError(f"{path} is not a budget curve (no 'methods'; see scripts/budget_curve.py)")
+    return curve
+
+
+def find_curve(results: Sequence[str | Path], explicit: str | Path | None) -> Path | None:
+    """The budget curve for a report: `explicit`, else a `budget_curve.json` next to one
+    of the results files, else None."""
+    if explicit is not None:
+        return Path(explicit)
+    found = [Path(f).parent / CURVE_FILE for f in results]
+    return next((p for p in found if p.is_file()), None)
+
+
+def curve_figure(curve: dict[str, Any], out: Path) -> Path:
+    """Score against median time to policy (log x), one line per method with its scales
+    marked; the paper's score on the same tasks as a dashed level in the method's colour."""
+    from fbil.envs.render import _pyplot, _save
+
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(5.2, 3.4), dpi=120)
+    for i, (method, entry) in enumerate(curve["methods"].items()):
+        colour = f"C{i % 10}"
+        pts = entry["points"]
+        xs, ys = [p["seconds_median"] for p in pts], [p["score_pct"] for p in pts]
+        err = [0.0 if math.isnan(p["ci95_pct"]) else p["ci95_pct"] for p in pts]
+        ax.errorbar(xs, ys, yerr=err, color=colour, marker="o", ms=4, capsize=2, label=method)
+        for p, x, y in zip(pts, xs, ys, strict=True):
+            ax.annotate(f"×{p['scale']:g}", (x, y), fontsize=6, xytext=(3, 3), ha="left",
+                        textcoords="offset points")  # fmt: skip
+        if entry.get("paper_score_pct") is not None:
+            ax.axhline(entry["paper_score_pct"], color=colour, ls="--", lw=1)
+    ax.plot([], [], "k--", lw=1, label="paper, same tasks")
+    ax.set_xscale("log")
+    ax.set_xlabel("time to policy (s, median over jobs)")
+    ax.set_ylabel("imitation score (%)")
+    tasks = ", ".join(curve.get("tasks", []))
+    ax.set_title(f"{curve.get('domain', '')}: score against budget ({tasks})", fontsize=8)
+    ax.legend(fontsize=6)
+    return _save(fig, out)
+
+
+def _fmt(x: float | None) -> str:
+    return "–" if x is None or math.isnan(x) else f"{x:.1f}"
+
+
+def curve_table(curve: dict[str, Any]) -> list[str]:
+    """One row per (method, scale): steps, time to policy, score and per-task scores."""
+    from fbil.evaluation.families import duration
+
+    tasks = list(curve.get("tasks", []))
+    lines = [
+        "| method | budget | gradient steps | time to policy | score (%) | ±95% | "
+        + " | ".join(tasks)
+        + " | paper, same tasks (%) |",
+        "|---" * (7 + len(tasks)) + "|",
+    ]
+    for method, entry in curve["methods"].items():
+        paper = _fmt(entry.get("paper_score_pct"))
+        for p in entry["points"]:
+            steps = ", ".join(f"{k or 'steps'} {v:,}" for k, v in p["steps"].items()) or "–"
+            per_task = [_fmt(p["task_scores_pct"].get(t)) for t in tasks]
+            lines.append(
+                f"| {method} | {p['budget']} | {steps} | {duration(p['seconds_median'])} | "
+                f"{_fmt(p['score_pct'])} | {_fmt(p['ci95_pct'])} | "
+                + " | ".join(per_task)
+                + f" | {paper} |"
+            )
+    return lines
+
+
+def curve_section(curve: dict[str, Any], out_dir: Path) -> list[str]:
+    """The report's part on the baselines' budgets: the figure and the table."""
+    fig = curve_figure(curve, out_dir / FIGURE_FILE)
+    draws, episodes = curve.get("draws", "?"), curve.get("episodes", "?")
+    return [
+        "## Baselines: score against training budget",
+        "",
+        f"Each baseline at its `{curve.get('budget', 'cpu')}` budget with every gradient-step "
+        "count scaled (`NAME@SCALE`; widths and batch sizes unchanged), on "
+        f"{', '.join(curve.get('tasks', []))} ({draws} demo draws × {episodes} episodes "
+        "per point): mean score over tasks and draws against the median time to policy. "
+        "Dashed: the paper's score on the same tasks (Tables 5-7). A curve that is flat "
+        "at its right end means more training would not change the baseline's score.",
+        "",
+        *curve_table(curve),
+        "",
+        f"![score against budget]({fig.name})",
+        "",
+    ]
