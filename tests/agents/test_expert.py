@@ -181,6 +181,25 @@ def test_online_init_starts_from_the_offline_expert(expert_dir: Path, tmp_path: 
     torch.testing.assert_close(rows["act"], torch.from_numpy(source.act(rows["obs"].numpy())))
 
 
+def test_an_expert_without_its_checkpoint_still_loads(expert_dir: Path, tmp_path: Path) -> None:
+    """expert.json + best.safetensors (committed without the replay buffer) is an expert:
+    the same actor acts, and --init fine-tunes from it."""
+    import shutil
+
+    kept = tmp_path / "kept"
+    kept.mkdir()
+    for name in ("expert.json", "best.safetensors"):
+        shutil.copy(expert_dir / name, kept / name)
+    full, _ = load_expert(expert_dir)
+    light, meta = load_expert(kept)
+    assert meta["actor"] == "best.safetensors"
+    obs = np.random.default_rng(0).normal(size=(5, 4)).astype(np.float32)
+    np.testing.assert_array_equal(full.act(obs), light.act(obs))
+    (kept / "best.safetensors").unlink()
+    with pytest.raises(FbilError, match="no expert in"):
+        load_expert(kept)
+
+
 def test_online_init_errors_are_one_line(
     expert_dir: Path, fixture_data: Path, tmp_path: Path
 ) -> None:

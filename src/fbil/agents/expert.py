@@ -461,11 +461,14 @@ class _OnlineLoop:
 
 
 def load_expert(directory: str | Path) -> tuple[TD3, dict[str, Any]]:
+    """The expert's best evaluated actor (or its last checkpoint) and its expert.json. A
+    folder with expert.json and best.safetensors alone (an expert committed without its
+    replay buffer) is enough: it makes demos and starts `--init` fine-tuning."""
     directory = Path(directory)
     meta_path, ckpt = directory / EXPERT, directory / CHECKPOINT
-    if not meta_path.is_file() or not ckpt.is_file():
+    if not meta_path.is_file() or not (ckpt.is_file() or (directory / BEST).is_file()):
         raise FbilError(
-            f"no expert in {directory}: expected {EXPERT} and {CHECKPOINT} "
+            f"no expert in {directory}: expected {EXPERT} and {BEST} or {CHECKPOINT} "
             "(train one with `fbil expert`)"
         )
     meta = json.loads(meta_path.read_text())
