@@ -19,7 +19,9 @@ from fbil.baselines.goal_td3 import (
     GoalTrackingPolicy,
     HERSampler,
     goal_preset,
+    goal_reward,
     goal_row,
+    median_step,
 )
 from fbil.cli import main
 from fbil.data import load_dataset
@@ -70,6 +72,32 @@ class Recorder:
     def act(self, obs: Any, goal: Any) -> np.ndarray:
         self.goals.append(np.asarray(goal)[0])
         return np.zeros((len(obs), 2), np.float32)
+
+
+def test_the_goal_distance_weighs_every_coordinate_by_its_spread(fixture_data: Path) -> None:
+    """Standardised distances (the default) stop a wide coordinate from deciding alone
+    whether a goal is reached; the radius is epsilon_steps median steps in that metric."""
+    g = torch.tensor([[0.0, 0.0]])
+    near_wide, near_narrow = torch.tensor([[5.0, 0.0]]), torch.tensor([[0.0, 0.5]])
+    scale = torch.tensor([10.0, 0.1])
+    assert goal_reward(near_wide, g, 1.0).item() == 0.0  # raw: 5 > 1
+    assert goal_reward(near_narrow, g, 1.0).item() == 1.0
+    assert goal_reward(near_wide, g, 1.0, scale).item() == 1.0  # 0.5 standard deviations
+    assert goal_reward(near_narrow, g, 1.0, scale).item() == 0.0  # 5 standard deviations
+    data = load_dataset(fixture_data)
+    std = data.observation.std(0).clip(1e-3)
+    assert median_step(data, std) != pytest.approx(median_step(data))
+    cfg = dataclasses.replace(goal_preset("point_mass_maze", "smoke"), epsilon_steps=1.5)
+    trainer = GoalTD3Trainer(cfg, data)
+    assert trainer.mcfg.distance == "standardized"
+    assert trainer.mcfg.epsilon == pytest.approx(1.5 * median_step(data, std), rel=1e-3)
+    raw = GoalTD3Trainer(dataclasses.replace(cfg, distance="raw"), data)
+    assert raw.mcfg.epsilon == pytest.approx(1.5 * median_step(data), rel=1e-6)
+    batch = trainer.sampler()
+    expected = goal_reward(batch.next_obs, batch.goal, trainer.mcfg.epsilon, trainer.sampler.scale)
+    torch.testing.assert_close(batch.reward, expected)
+    with pytest.raises(FbilError, match="unknown distance"):
+        dataclasses.replace(cfg, distance="cosine")
 
 
 def test_the_goal_at_step_t_is_the_demo_state_k_steps_ahead_as_goalfb() -> None:

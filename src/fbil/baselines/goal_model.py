@@ -35,6 +35,7 @@ class GoalModelConfig:
     hidden: int
     epsilon: float  # the goal radius it was trained for: r = 1{|s' - g| <= epsilon}
     gamma: float
+    distance: str = "raw"  # the metric of |s' - g|: "standardized" or "raw" (older models)
 
 
 def goal_agent(cfg: GoalModelConfig, td3: TD3Config | None = None, seed: int = 0) -> TD3:
