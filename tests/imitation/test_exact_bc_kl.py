@@ -4,10 +4,13 @@ BC (7): -E_{rho_e} ln pi_z(a_t | s_t); KL (57): -E_{rho_e} sum_k gamma^k
 ln F(s_t, z)^T B(s_{t+k+1}), whose expectation is E_{rho_e} KL(M^e(s) || M^z(s)) up to a
 z-independent constant (Theorem 6), with F^T B = M / rho from the closed-form M."""
 
+from typing import Any
+
 import numpy as np
 import pytest
 import torch
 
+from fbil.errors import FbilError
 from fbil.imitation import OptimiserConfig, from_arrays
 from fbil.imitation.core import DemoBatch, FBLike, prepare
 from fbil.imitation.methods import bc, kl
@@ -134,3 +137,33 @@ def test_kl_loss_is_the_kl_of_successor_measures_up_to_a_constant(fb: TabularFB)
         losses.append(kl_loss(fb, batch, z) / (1 - fb.gamma))
         assert losses[-1] == pytest.approx(divergence + constant, rel=1e-6, abs=1e-6)
     assert all(losses[0] < other for other in losses[1:])
+
+
+class _SignFlip:
+    """The tabular FB with F negated on the states in `flipped` (its density F^T B < 0 on
+    every pair that starts there)."""
+
+    def __init__(self, fb: TabularFB, flipped: list[int]) -> None:
+        self.fb, self.flipped = fb, torch.tensor(flipped)
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self.fb, name)
+
+    def forward(self, obs: torch.Tensor, z: torch.Tensor) -> torch.Tensor:
+        sign = 1.0 - 2.0 * obs[:, self.flipped].sum(-1, keepdim=True).clamp(max=1.0)
+        return self.fb.forward(obs, z) * sign
+
+
+def test_klfb_tolerates_a_few_nonpositive_pairs_and_refuses_a_majority(fb: TabularFB) -> None:
+    """Pairs with F^T B <= 0 are constant in the loss: a model where they are rare still
+    gives a finite z, and one where they carry most of the weight is refused in one line."""
+    z_e, *_ = random_zs(fb)
+    states, _ = two_demos(fb, z_e)
+    batch = prepare(fb, from_arrays([np.eye(fb.S)[s] for s in states]), fb.gamma)
+    cfg = OptimiserConfig(lr=0.01, steps=5, batch_size=None, precision="fp32")
+    rare = _SignFlip(fb, [int(states[1][0])])  # one start state of the 11-step demo
+    z, _ = kl.klfb(rare, batch, z_e, cfg)  # type: ignore[arg-type]
+    assert torch.isfinite(z).all()
+    everywhere = _SignFlip(fb, list(range(fb.S)))
+    with pytest.raises(FbilError, match=r"klfb needs .* non-positive values on 100\.0%"):
+        kl.klfb(everywhere, batch, z_e, cfg)  # type: ignore[arg-type]

@@ -1,7 +1,9 @@
 """KL distribution matching (57): min_z -E_{rho_e} sum_k gamma^k ln F(s_t, z)^T B(s_{t+k+1}).
 
-Only meaningful where the model's density F^T B is positive on the demonstration; the
-method refuses models for which it is not (at the warm start)."""
+Only meaningful where the model's density F^T B is positive on the demonstration. Pairs
+where it is not contribute a constant (the log is taken of max(F^T B, 1e-12)), so a few
+of them are harmless; the method refuses a model for which they carry at least half of
+the pairs' weight at the warm start."""
 
 from __future__ import annotations
 
@@ -11,6 +13,10 @@ import torch
 
 from fbil.errors import FbilError
 from fbil.imitation.core import DemoBatch, FBLike, OptimiserConfig, optimise_z
+
+# The largest share of the pairs' weight (gamma^k) on which F^T B may be <= 0 at the warm
+# start; those pairs are constant in the loss, so the rest must carry most of it.
+MAX_NONPOSITIVE = 0.5
 
 
 def _pair_weights(batch: DemoBatch) -> torch.Tensor:
@@ -30,12 +36,12 @@ def klfb(
         return model.forward(part.obs, z.expand(len(part.obs), -1)) @ batch.b_next.T
 
     with torch.no_grad():
-        start = density(model.project_z(z0), batch)[pairs > 0]
-    if (start <= 0).any():
-        share = float((start <= 0).float().mean())
+        start = density(model.project_z(z0), batch)
+    share = float((pairs * (start <= 0)).sum() / pairs.sum())
+    if share >= MAX_NONPOSITIVE:
         raise FbilError(
             f"klfb needs F(s,z)^T B(s') > 0 on the demonstration, but the model gives "
-            f"non-positive values on {100 * share:.0f}% of pairs; use another method"
+            f"non-positive values on {100 * share:.1f}% of the pairs' weight; use another method"
         )
 
     def loss(z: torch.Tensor, part: DemoBatch) -> torch.Tensor:
