@@ -475,12 +475,11 @@ def _names(comma_list: str) -> list[str]:
 
 
 def _cmd_benchmark(args: argparse.Namespace) -> int:
-    from tqdm.auto import tqdm
-
     from fbil.envs import get_domain, get_task
     from fbil.evaluation.benchmark import make_jobs, read_results, run_benchmark
     from fbil.evaluation.evaluate import resolve_methods
     from fbil.fb.train import git_commit
+    from fbil.progress import progress_bar
 
     spec = get_domain(args.domain)
     tasks = spec.task_names if args.tasks == "all" else _names(args.tasks)
@@ -502,7 +501,7 @@ def _cmd_benchmark(args: argparse.Namespace) -> int:
         goal_model=args.goal_model,
     )
     before = len(read_results(args.out))
-    bar = tqdm(
+    bar = progress_bar(
         total=len(jobs),
         initial=min(before, len(jobs)),
         desc="benchmark",

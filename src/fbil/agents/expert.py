@@ -17,7 +17,6 @@ from typing import Any
 
 import numpy as np
 import torch
-from tqdm.auto import tqdm
 
 from fbil import __version__
 from fbil.agents.td3 import TD3, TD3Config
@@ -28,6 +27,7 @@ from fbil.data import load_dataset
 from fbil.envs import BatchedEnv, DomainSpec, get_domain, get_task
 from fbil.errors import FbilError
 from fbil.imitation.demos import Demos, Trajectory
+from fbil.progress import progress_bar
 
 CHECKPOINT, EXPERT, LOG = "checkpoint.safetensors", "expert.json", "train_log.csv"
 # The best actor seen at the periodic evaluations: offline TD3's return oscillates between
@@ -197,7 +197,9 @@ def _train_loop(
         writer = csv.DictWriter(fh, LOG_FIELDS)
         if new_log:
             writer.writeheader()
-        bar = tqdm(total=steps, initial=step, disable=not progress, desc=f"expert {run.task}")
+        bar = progress_bar(
+            total=steps, initial=step, disable=not progress, desc=f"expert {run.task}"
+        )
         while step < steps:
             last = run.learner.step() or last
             step += 1

@@ -28,7 +28,6 @@ from typing import Any, NamedTuple
 
 import numpy as np
 import torch
-from tqdm.auto import tqdm
 
 from fbil.agents.td3 import TD3Config
 from fbil.baselines.common import paper_gamma, standardiser
@@ -38,6 +37,7 @@ from fbil.csvlog import last_wall_seconds, truncate_log
 from fbil.errors import FbilError
 from fbil.imitation.demos import Demos
 from fbil.imitators.base import FitContext, Imitator
+from fbil.progress import progress_bar
 
 CHECKPOINT, LOG = "goal_checkpoint.safetensors", "goal_train_log.csv"
 LOG_FIELDS = ("step", "critic_loss", "q", "reward_mean", "steps_per_s", "wall_seconds")
@@ -254,7 +254,9 @@ class GoalTD3Trainer:
         new_log = not log.exists()
         started = last_ckpt = last_log = time.perf_counter()
         at_log = self.step
-        bar = tqdm(total=cfg.steps, initial=self.step, disable=not progress, desc="pretrain-goal")
+        bar = progress_bar(
+            total=cfg.steps, initial=self.step, disable=not progress, desc="pretrain-goal"
+        )
         with open(log, "a", newline="") as fh:
             writer = csv.DictWriter(fh, LOG_FIELDS, extrasaction="ignore")
             if new_log:

@@ -16,7 +16,6 @@ from typing import Any
 
 import numpy as np
 import torch
-from tqdm.auto import tqdm
 
 from fbil import __version__
 from fbil.checkpoint import load_state, save_state
@@ -32,6 +31,7 @@ from fbil.data.storage import (
 )
 from fbil.envs import DOMAINS, BatchedEnv, RandomPolicy, get_domain
 from fbil.errors import FbilError
+from fbil.progress import progress_bar
 
 EXPLORERS = ("rnd", "random")
 STARTS = ("standard", "uniform")
@@ -128,7 +128,7 @@ def collect(
     write_manifest(out, manifest)
     run = _Run(domain, out, seed, starts, cfg, manifest)
     run.start(explorer, done)
-    bar = tqdm(
+    bar = progress_bar(
         total=episodes, initial=done, disable=not progress, desc=f"collect {domain}", unit="ep"
     )
     while done < episodes:

@@ -39,6 +39,7 @@ from fbil.data import Dataset
 from fbil.errors import FbilError
 from fbil.fb.config import FBModelConfig, FBTrainConfig
 from fbil.fb.model import CONFIG, FBModel
+from fbil.progress import progress_bar
 
 CHECKPOINT, LOG = "checkpoint.safetensors", "train_log.csv"
 LOG_FIELDS = (
@@ -389,13 +390,12 @@ class FBTrainer:
             writer = csv.DictWriter(fh, LOG_FIELDS)
             if new_log:
                 writer.writeheader()
-            bar = tqdm(
+            bar = progress_bar(
                 total=self.cfg.steps,
                 initial=self.step,
                 disable=not progress,
                 desc="pretrain",
                 unit="step",
-                mininterval=1.0 if sys.stderr.isatty() else 60.0,  # sparse in log files
             )
             wall = self._loop(out, fh, writer, bar, manifest, wall_before)
             bar.close()
