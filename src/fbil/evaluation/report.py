@@ -202,8 +202,8 @@ def _limits_section(
         "policies can do the task at all. Zero-shot: the model's policy for the z inferred "
         "from the *true* reward over its dataset (`fbil zero-shot`, the model's "
         "`zero_shot.json`); FB-IL methods see one demonstration instead of the reward. "
-        "How the maze model's zero-shot returns move with training length, n-step targets "
-        "and B's learning rate: docs/fb-maze-notes.md in the fbil repository.",
+        "How each committed model's zero-shot returns move with training (learning curves, "
+        "ablations) is in the fbil repository's docs/, one page per domain.",
         "",
         "| task | expert | paper expert | expert / paper | zero-shot return "
         "| best imitation return (method) |",
