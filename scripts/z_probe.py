@@ -1,0 +1,79 @@
+"""Where the task-to-z map goes wrong: for each task, roll out the model's policy for
+several ways of inferring z, and print each z's return and its cosine with z_r.
+
+  z_r        E_rho[r(s') B(s')] over the relabeled dataset (`fbil zero-shot`)
+  z_r>=0.5   E_rho[1{r(s') >= 0.5} B(s')]: the dataset's well-paid states only
+  ERFB       E_demo[B(s')] from the task's first committed demonstration (fbil's erfb)
+  demo r     E_demo[r(s') B(s')]: the demo's states weighted by their true reward
+
+If the demo-based z's do well where z_r fails, the model's policies can do the task and
+the dataset's reward-weighted average of B is what misleads z_r; the reverse points at
+the demonstration's features. Any domain; the demos folder holds <task>.npz files.
+
+Usage: python scripts/z_probe.py MODEL --data DIR --demos DIR [--tasks all] [--episodes 10]
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from fbil.data import load_dataset
+from fbil.envs import get_domain, rollout
+from fbil.fb.model import FBModel
+from fbil.fb.policy import FBPolicy
+from fbil.fb.zero_shot import dataset_backward
+from fbil.imitation.core import prepare
+from fbil.imitation.demos import Demos
+from fbil.imitation.methods.reward import erfb
+
+NAMES = ("z_r", "z_r>=0.5", "ERFB", "demo r")
+
+
+def task_zs(model: FBModel, b: torch.Tensor, reward: torch.Tensor, demos: Demos) -> dict:
+    """The four z's of the module's doc for one task."""
+    well_paid = (reward >= 0.5).float()
+    batch = prepare(model, demos, gamma=model.gamma)
+    z_er, _ = erfb(model, batch)
+    demo_r = torch.cat([torch.as_tensor(t.reward, dtype=torch.float32) for t in demos.trajectories])
+    return {
+        "z_r": model.project_z((reward * b).mean(0)),
+        "z_r>=0.5": model.project_z((well_paid * b).mean(0)),
+        "ERFB": z_er,
+        "demo r": model.project_z((batch.weight * demo_r) @ batch.b_next),
+    }
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("model")
+    p.add_argument("--data", required=True)
+    p.add_argument("--demos", required=True)
+    p.add_argument("--tasks", default="all")
+    p.add_argument("--episodes", type=int, default=10)
+    p.add_argument("--threads", type=int, default=1)
+    args = p.parse_args()
+    torch.set_num_threads(args.threads)
+    model, data = FBModel.load(args.model), load_dataset(args.data)
+    tasks = list(get_domain(data.domain).tasks) if args.tasks == "all" else args.tasks.split(",")
+    b = dataset_backward(model, data)
+    seeds = [10_000 + i for i in range(args.episodes)]
+    print("task".ljust(10) + "".join(n.rjust(20) for n in NAMES))
+    for task in tasks:
+        reward = torch.from_numpy(data.reward(task)).reshape(-1, 1)
+        demos = Demos.load(Path(args.demos) / f"{task}.npz").select([0])
+        zs = task_zs(model, b, reward, demos)
+        cells = []
+        for name in NAMES:
+            z = zs[name]
+            ret = float(np.mean(rollout(data.domain, task, FBPolicy(model, z), seeds).returns))
+            cos = float(z @ zs["z_r"] / (z.norm() * zs["z_r"].norm()))
+            cells.append(f"{ret:7.1f} (cos {cos:5.2f})")
+        print(task.ljust(10) + "".join(c.rjust(20) for c in cells), flush=True)
+
+
+if __name__ == "__main__":
+    main()
