@@ -157,6 +157,10 @@ def test_online_resume_keeps_the_replay_buffer(tmp_path: Path) -> None:
     torch.testing.assert_close(second["learner"]["obs"][:30], first["obs"])
     # expert.json keeps both invocations, so a resumed expert still shows how it started.
     assert len(json.loads((out / "expert.json").read_text())["commands"]) == 2
+    # The log's wall time goes on from the first run's instead of restarting at zero.
+    rows = (out / "train_log.csv").read_text().splitlines()[1:]
+    walls = [float(r.split(",")[-1]) for r in rows]
+    assert [int(r.split(",")[0]) for r in rows] == [30, 50] and walls[1] >= walls[0]
 
 
 def test_online_init_starts_from_the_offline_expert(expert_dir: Path, tmp_path: Path) -> None:

@@ -22,7 +22,7 @@ from fbil import __version__
 from fbil.agents.td3 import TD3, TD3Config
 from fbil.checkpoint import atomic_write_text, load_state, save_state
 from fbil.config import config_from_dict
-from fbil.csvlog import truncate_log
+from fbil.csvlog import last_wall_seconds, truncate_log
 from fbil.data import load_dataset
 from fbil.envs import BatchedEnv, DomainSpec, get_domain, get_task
 from fbil.errors import FbilError
@@ -190,7 +190,8 @@ def _train_loop(
     if resume:
         truncate_log(log, step, LOG_FIELDS)
     new_log = not log.exists()
-    started = last_ckpt = time.perf_counter()
+    last_ckpt = time.perf_counter()
+    started = last_ckpt - last_wall_seconds(log)  # the log's wall time is cumulative
     last: dict[str, float] = {}
     best = load_state(best_path)["return_mean"] if resume and best_path.is_file() else None
     with open(log, "a", newline="") as fh:
