@@ -58,7 +58,7 @@ def main() -> None:
     args = p.parse_args()
     torch.set_num_threads(args.threads)
     model, data = FBModel.load(args.model), load_dataset(args.data)
-    tasks = list(get_domain(data.domain).tasks) if args.tasks == "all" else args.tasks.split(",")
+    tasks = get_domain(data.domain).task_names if args.tasks == "all" else args.tasks.split(",")
     b = dataset_backward(model, data)
     seeds = [10_000 + i for i in range(args.episodes)]
     print("task".ljust(10) + "".join(n.rjust(20) for n in NAMES))

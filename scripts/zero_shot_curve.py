@@ -74,12 +74,13 @@ def main(argv: list[str] | None = None) -> int:
         done = {r["step"] for r in rows}
         todo = [(s, p) for s, p in candidates(args.run) if s not in done]
         dataset = load_dataset(args.data) if todo else None
-        for step, folder in todo:
-            assert dataset is not None
+        if dataset is not None:
             tasks = (
-                list(get_domain(dataset.domain).tasks) if args.tasks == "all"
+                get_domain(dataset.domain).task_names if args.tasks == "all"
                 else args.tasks.split(",")
             )  # fmt: skip
+        for step, folder in todo:
+            assert dataset is not None
             res = zero_shot(FBModel.load(folder), dataset, tasks, args.episodes)
             returns = {t: round(v["return_mean"], 1) for t, v in res["tasks"].items()}
             rows.append({"step": step, "returns": returns, "episodes": args.episodes})
