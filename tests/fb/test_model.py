@@ -13,7 +13,7 @@ from fbil.data import load_dataset
 from fbil.errors import FbilError
 from fbil.fb.config import FBModelConfig
 from fbil.fb.model import FBModel
-from fbil.fb.train import _offdiag_mean_sq
+from fbil.fb.train import _offdiag_mean_sq, offdiag_residual_sq
 from fbil.fb.zero_shot import dataset_backward
 from tests.envs.test_registry import EXPECTED
 
@@ -96,6 +96,27 @@ def test_offdiagonal_mean_needs_no_mask() -> None:
     mask = ~torch.eye(6, dtype=torch.bool)
     expected = torch.stack([xi[mask].pow(2).mean() for xi in x])
     torch.testing.assert_close(_offdiag_mean_sq(x), expected)
+
+
+def test_low_rank_fb_residual_matches_the_n_by_n_form() -> None:
+    # The FB loss's off-diagonal term and its gradients, without forming F B^T, against
+    # the masked n x n residual, in float64 (exact up to rounding).
+    gen = torch.Generator().manual_seed(0)
+    f0 = torch.randn(2, 7, 3, generator=gen, dtype=torch.float64)
+    b0 = torch.randn(7, 3, generator=gen, dtype=torch.float64)
+    target = torch.randn(7, 7, generator=gen, dtype=torch.float64)
+    mask = ~torch.eye(7, dtype=torch.bool)
+    results = []
+    for low_rank in (True, False):
+        f, b = f0.clone().requires_grad_(True), b0.clone().requires_grad_(True)
+        if low_rank:
+            value = offdiag_residual_sq(f, b, target)
+        else:
+            value = torch.stack([(fk @ b.T - target)[mask].pow(2).mean() for fk in f])
+        (value * torch.tensor([1.0, 3.0], dtype=torch.float64)).sum().backward()
+        results.append((value.detach(), f.grad, b.grad))
+    for got, want in zip(*results, strict=True):
+        torch.testing.assert_close(got, want, rtol=1e-10, atol=1e-10)
 
 
 def _zero_shot_cli(directory: Path, data: Path, *extra: str) -> subprocess.CompletedProcess[str]:

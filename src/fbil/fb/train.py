@@ -10,7 +10,9 @@ One update, top to bottom (SPEC §4), for a batch of transitions (s_i, a_i, s'_i
   L_actor = -mean_i min_k F^k(s_i, a~_i, z_i)^T z_i,  a~_i = mu(s_i, z_i) + clipped noise
   optional (q_loss_coef > 0): L_Q = sum_k 1/2 mean_i (F^k(s_i, a_i, z_i)^T z_i - y_i)^2,
   y_i = b_i^T Cov^-1 z_i + gamma min_k Fbar^k(s'_i, a'_i, z_i)^T z_i, Cov = B^T B / n
-Off-diagonal means are taken as (sum - trace) / (n (n - 1)): no masks.
+Off-diagonal means are taken as (sum - trace) / (n (n - 1)): no masks; the sums of
+squares go through d x d Gram matrices (F^T F, B^T B) and T B, so that M (n x n per head)
+and B B^T are never formed (offdiag_residual_sq).
 """
 
 from __future__ import annotations
@@ -62,6 +64,28 @@ def _offdiag_mean_sq(x: torch.Tensor) -> torch.Tensor:
     diag = x.diagonal(dim1=-2, dim2=-1)
     # x * x, not x.pow(2): the same numbers, ~3x faster forward and backward on CPU.
     total = (x * x).sum((-2, -1)) - (diag * diag).sum(-1)
+    return total / (n * (n - 1))
+
+
+def offdiag_residual_sq(f: torch.Tensor, b: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
+    """mean_{i != j} (f_i^T b_j - T_ij)^2 per head, for f (k, n, d), b (n, d), T (n, n),
+    without forming F B^T: sum_ij (F B^T)_ij^2 = <F^T F, B^T B> (d x d products) and
+    sum_ij (F B^T)_ij T_ij = <F, T B> (one n x n x d product for all heads). The same
+    number as `_offdiag_mean_sq(f @ b.T - target)` up to rounding, at about a third of the
+    n x n work forward and backward (the n x n products are the slowest part of the update
+    at batch 512 and d 50-100: K = d is too small for an efficient matmul)."""
+    n = b.shape[0]
+    m_diag = (f * b).sum(-1)  # (k, n): M_ii
+    t_diag = target.diagonal()
+    full_mm = (torch.matmul(f.transpose(-2, -1), f) * (b.T @ b)).sum((-2, -1))
+    full_mt = (f * (target @ b)).sum((-2, -1))
+    full_tt = (target * target).sum()
+    total = (
+        full_mm
+        - (m_diag * m_diag).sum(-1)
+        - 2 * (full_mt - (m_diag * t_diag).sum(-1))
+        + (full_tt - (t_diag * t_diag).sum())
+    )
     return total / (n * (n - 1))
 
 
@@ -263,23 +287,26 @@ class FBTrainer:
         with amp:
             f = m.forward_net(batch.obs, z, batch.action).float()  # (2, n, d)
         target = self._combine_heads(torch.matmul(f_tgt, b_tgt.T)).detach()  # (n, n)
-        big_m = torch.matmul(f, b_next.T)  # (2, n, n)
         discount = cfg.gamma**cfg.nstep
-        fb_offdiag = 0.5 * _offdiag_mean_sq(big_m - discount * target).sum()
+        # M = F B^T (2, n, n) is never formed: see offdiag_residual_sq.
+        fb_offdiag = 0.5 * offdiag_residual_sq(f, b_next, discount * target).sum()
         b_far = b_next
         if batch.far_obs is None:
-            fb_diag = -big_m.diagonal(dim1=-2, dim2=-1).mean(-1).sum()
+            fb_diag = -(f * b_next).sum(-1).mean(-1).sum()
         else:
             with amp, torch.set_grad_enabled(not frozen):
                 b_far = m.backward_net(batch.far_obs).float()
             fb_diag = -self.measure_mass * (f * b_far).sum(-1).mean(-1).sum()
-        cov = b_next @ b_next.T
-        ortho_loss = _offdiag_mean_sq(cov) - 2 * cov.diagonal().mean()
+        # mean_{i!=j} (b_i^T b_j)^2 - 2 mean_i |b_i|^2, through the d x d Gram B^T B.
+        n, d = b_next.shape
+        sq_norms = (b_next * b_next).sum(-1)
+        gram_bb = b_next.T @ b_next
+        offdiag_cov = ((gram_bb * gram_bb).sum() - (sq_norms * sq_norms).sum()) / (n * (n - 1))
+        ortho_loss = offdiag_cov - 2 * sq_norms.mean()
         q_loss = torch.zeros((), device=f.device)
         if cfg.q_loss_coef > 0:
             q_loss = self._q_loss(f, f_tgt.detach(), b_next.detach(), b_far.detach(), z)
-        n, d = b_next.shape
-        gram = (b_next.T @ b_next).detach() / n
+        gram = gram_bb.detach() / n
         eye = torch.eye(d, device=gram.device)
         return {
             "loss": fb_offdiag + fb_diag + cfg.ortho_coef * ortho_loss + cfg.q_loss_coef * q_loss,
