@@ -2,6 +2,7 @@
 
 import json
 import os
+import re
 import shutil
 import signal
 import subprocess
@@ -146,6 +147,26 @@ def test_min_and_mean_targets_agree_exactly_when_the_heads_agree(fixture_data: P
     assert not torch.equal(one_update("min", False), one_update("mean", False))
 
 
+def test_straight_through_clamp_keeps_the_actor_gradient_of_saturated_actions(
+    fixture_data: Path,
+) -> None:
+    """With every noisy action outside [-1, 1], the hard clamp leaves the actor no gradient;
+    the straight-through clamp gives the same loss value and a gradient."""
+    grads, losses = {}, {}
+    for clamp in ("hard", "straight_through"):
+        trainer = _smoke_trainer(fixture_data, actor_clamp=clamp, precision="fp32")
+        batch = trainer.sample()
+        z = trainer.model.sample_z(len(batch.obs), torch.Generator().manual_seed(0))
+        noise = torch.full_like(batch.noise[1], 3.0)  # mu + noise > 1 everywhere
+        loss, _ = trainer.actor_loss(batch.obs, z, noise)
+        loss.backward()
+        grads[clamp] = torch.cat([p.grad.flatten() for p in trainer.model.actor.parameters()])
+        losses[clamp] = loss.detach()
+    torch.testing.assert_close(losses["hard"], losses["straight_through"])
+    assert torch.count_nonzero(grads["hard"]) == 0
+    assert grads["straight_through"].abs().sum() > 0
+
+
 def test_q_loss_is_the_td_error_of_f_z_with_the_implicit_reward(fixture_data: Path) -> None:
     """The logged q_loss equals the formula recomputed from the same batch (1-step)."""
     trainer = _smoke_trainer(fixture_data, q_loss_coef=0.5, precision="fp32")
@@ -245,3 +266,21 @@ def test_resume_on_other_data_is_noted_and_kept_in_the_metadata(
         {"dataset": str(fixture_data), "from_step": 0},
         {"dataset": str(other), "from_step": 8},
     ]
+
+
+@pytest.mark.parametrize(
+    ("field", "value", "message"),
+    [
+        ("target_heads", "max", "unknown target_heads 'max'; valid: min, mean"),
+        ("actor_clamp", "soft", "unknown actor_clamp 'soft'; valid: hard, straight_through"),
+        ("precision", "fp16", "unknown precision 'fp16'; valid: fp32, bf16"),
+    ],
+)
+def test_train_config_names_a_bad_choice_and_the_valid_ones(
+    field: str, value: str, message: str
+) -> None:
+    from fbil.errors import FbilError
+    from fbil.fb.config import FBTrainConfig
+
+    with pytest.raises(FbilError, match=re.escape(message)):
+        FBTrainConfig(**{field: value})  # type: ignore[arg-type]

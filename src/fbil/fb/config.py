@@ -13,6 +13,7 @@ from fbil.errors import FbilError
 BNorm = Literal["l2", "batchnorm", "none"]
 Precision = Literal["fp32", "bf16"]
 TargetHeads = Literal["min", "mean"]
+ActorClamp = Literal["hard", "straight_through"]
 
 
 @dataclass(frozen=True)
@@ -66,6 +67,11 @@ class FBTrainConfig:
     # "mean" (Meta's later FB code: pessimism only in the actor). A min of two noisy
     # estimates is biased low; the bias compounds over the many backups a far goal needs.
     target_heads: TargetHeads = "min"
+    # How the actor loss keeps mu(s, z) + noise inside [-1, 1]: "hard" clamps (no gradient
+    # where the noisy action leaves the box, i.e. for most components of a saturated
+    # tanh policy), "straight_through" clamps the value and passes the gradient as if
+    # unclamped (the reference FB code's truncated-normal policy does this).
+    actor_clamp: ActorClamp = "hard"
     # From this step on (0 = never), B and its batch-norm statistics stay fixed and only F
     # and the actor learn: F's target stops moving, so the far field of the measure (slow
     # to propagate through the few room-to-room transitions) can settle. The paper's maze
@@ -82,6 +88,10 @@ class FBTrainConfig:
             raise FbilError(f"unknown precision {self.precision!r}; valid: fp32, bf16")
         if self.target_heads not in ("min", "mean"):
             raise FbilError(f"unknown target_heads {self.target_heads!r}; valid: min, mean")
+        if self.actor_clamp not in ("hard", "straight_through"):
+            raise FbilError(
+                f"unknown actor_clamp {self.actor_clamp!r}; valid: hard, straight_through"
+            )
         if self.nstep < 1:
             raise FbilError(f"nstep must be >= 1, got {self.nstep}")
         if self.q_loss_coef < 0:

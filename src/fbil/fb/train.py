@@ -8,6 +8,7 @@ One update, top to bottom (SPEC §4), for a batch of transitions (s_i, a_i, s'_i
   L_FB   = sum_k 1/2 mean_{i!=j} (M^k_ij - gamma T_ij)^2 - mean_i M^k_ii
   L_orth = mean_{i!=j} (b_i^T b_j)^2 - 2 mean_i |b_i|^2,  b_i = B(s'_i)
   L_actor = -mean_i min_k F^k(s_i, a~_i, z_i)^T z_i,  a~_i = mu(s_i, z_i) + clipped noise
+           (clamped to [-1, 1]; actor_clamp="straight_through": gradient as if unclamped)
   optional (q_loss_coef > 0): L_Q = sum_k 1/2 mean_i (F^k(s_i, a_i, z_i)^T z_i - y_i)^2,
   y_i = b_i^T Cov^-1 z_i + gamma min_k Fbar^k(s'_i, a'_i, z_i)^T z_i, Cov = B^T B / n
 Off-diagonal means are taken as (sum - trace) / (n (n - 1)): no masks; the sums of
@@ -345,7 +346,10 @@ class FBTrainer:
         """L_actor = -mean min_k F^k(s, mu(s, z) + noise, z)^T z, and that mean Q."""
         m = self.model
         with self._autocast():
-            pi_action = (m.actor(obs, z) + noise).clamp(-1, 1)
+            noisy = m.actor(obs, z) + noise
+            pi_action = noisy.clamp(-1, 1)
+            if self.cfg.actor_clamp == "straight_through":  # value clamped, gradient not
+                pi_action = noisy + (pi_action - noisy).detach()
             f_pi = m.forward_net(obs, z, pi_action).float()
         q = (f_pi * z).sum(-1).min(0).values.mean()
         return -q, q.detach()
