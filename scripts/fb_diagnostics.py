@@ -60,7 +60,9 @@ def diagnostics(model: FBModel, data: Any, states: int = 40_000, seed: int = 0) 
     s = torch.from_numpy(data.observation[nxt[:m] - 1])
     use_b = torch.rand(m, generator=gen) < 0.5
     perm = torch.randperm(len(b), generator=gen)[:m]
-    z = model.project_z(torch.where(use_b[:, None], b[perm].float(), torch.randn(m, model.z_dim, generator=gen)))
+    z = model.project_z(
+        torch.where(use_b[:, None], b[perm].float(), torch.randn(m, model.z_dim, generator=gen))
+    )
     a = model.act(s, z)
     f_both = model.forward(s, z, a, heads="both").double()  # (2, m, d)
     out["measure_mass"] = float((f_both.mean(0) @ e_b).mean())
@@ -104,7 +106,8 @@ def main() -> None:
         return
     print(
         f"Cov B eigenvalues {res['cov_b_eig_min']:.2f}-{res['cov_b_eig_max']:.2f}; "
-        f"measure mass {res['measure_mass']:.1f} (unbiased fixed point {res['unbiased_mass']:.1f}); "
+        f"measure mass {res['measure_mass']:.1f} "
+        f"(unbiased fixed point {res['unbiased_mass']:.1f}); "
         f"head gap {res['head_gap']:.2f}; actor >= best of 8 random actions in "
         f"{100 * res['actor_beats_best_of_8_random']:.0f} % of states; saturated action "
         f"components {100 * res['saturated_actions']:.0f} %"
