@@ -15,6 +15,10 @@
                   actions under the model's own Q = F^T z; and the share of saturated action
                   components (|a| > 0.95)
   Q(z_r)          mean F(s, pi(s), z_r)^T z_r per task: a non-negative reward gives Q >= 0
+  cos(z, E[B])    where z_r points, against the training z's: the 99th percentile of
+                  cos(z, E[B]) over training draws, and cos(z_r, E[B]) per task. A z_r far
+                  beyond the training z's is a z the actor and F have never been trained on
+                  (a reward's mean loads z_r onto E[B] when constants lie in span B)
 
 z is drawn as in training (half Gaussian on the sphere, half B of a data state); the
 diagnostics use --states random next states of the dataset (default 40 000, ~5 s).
@@ -64,6 +68,8 @@ def diagnostics(model: FBModel, data: Any, states: int = 40_000, seed: int = 0) 
         torch.where(use_b[:, None], b[perm].float(), torch.randn(m, model.z_dim, generator=gen))
     )
     a = model.act(s, z)
+    cos_train = torch.nn.functional.cosine_similarity(z.double(), e_b[None], dim=-1)
+    out["train_z_cos_e_b_p99"] = float(torch.quantile(cos_train, 0.99))
     f_both = model.forward(s, z, a, heads="both").double()  # (2, m, d)
     out["measure_mass"] = float((f_both.mean(0) @ e_b).mean())
     q_heads = (f_both * z.double()).sum(-1)
@@ -86,7 +92,8 @@ def diagnostics(model: FBModel, data: Any, states: int = 40_000, seed: int = 0) 
         r2 = 1 - float(((r - r_hat) ** 2).mean() / r.var()) if r.var() > 0 else float("nan")
         zz = model.project_z(z_r.float()).expand(m, -1)
         q = (model.forward(s, zz, model.act(s, zz), heads="both").mean(0) * zz).sum(-1)
-        tasks[task] = {"reward_r2": r2, "q_z_r": float(q.mean())}
+        cos = float(torch.nn.functional.cosine_similarity(z_r, e_b, dim=0))
+        tasks[task] = {"reward_r2": r2, "q_z_r": float(q.mean()), "cos_z_r_e_b": cos}
     out["tasks"] = tasks
     return out
 
@@ -112,9 +119,10 @@ def main() -> None:
         f"{100 * res['actor_beats_best_of_8_random']:.0f} % of states; saturated action "
         f"components {100 * res['saturated_actions']:.0f} %"
     )
-    print(f"{'task':<24}{'reward R^2':>11}{'Q(z_r)':>10}")
+    print(f"training z: 99th percentile of cos(z, E[B]) {res['train_z_cos_e_b_p99']:.2f}")
+    print(f"{'task':<24}{'reward R^2':>11}{'Q(z_r)':>10}{'cos(z_r, E[B])':>16}")
     for task, r in res["tasks"].items():
-        print(f"{task:<24}{r['reward_r2']:>11.3f}{r['q_z_r']:>10.1f}")
+        print(f"{task:<24}{r['reward_r2']:>11.3f}{r['q_z_r']:>10.1f}{r['cos_z_r_e_b']:>16.2f}")
 
 
 if __name__ == "__main__":

@@ -284,3 +284,36 @@ def test_train_config_names_a_bad_choice_and_the_valid_ones(
 
     with pytest.raises(FbilError, match=re.escape(message)):
         FBTrainConfig(**{field: value})  # type: ignore[arg-type]
+
+
+def test_mean_of_b_rows_are_subset_means_and_other_rows_unchanged(fixture_data: Path) -> None:
+    """z_from_b_mean_ratio: the chosen rows' z is the projected mean of B over a non-empty
+    subset of the batch's next states; with the ratio at 0 the draws (and so every other
+    run) stay exactly as before."""
+    trainer = _smoke_trainer(fixture_data, z_from_b_mean_ratio=0.3, precision="fp32")
+    batch = trainer.sample()
+    assert batch.use_mean is not None and batch.mean_weights is not None
+    assert bool(batch.use_mean.any()) and not bool((batch.use_mean & batch.use_b).any())
+    w = batch.mean_weights
+    torch.testing.assert_close(w.sum(1), torch.ones(len(w)))
+    assert int((w > 0).sum(1).min()) >= 1
+    with torch.no_grad():
+        out = trainer.fb_losses(batch, frozen=False)
+        b_next = trainer.model.backward_net(batch.next_obs)
+    rows = batch.use_mean
+    expected = trainer.model.project_z((w @ b_next)[rows])
+    torch.testing.assert_close(out["z"][rows], expected)
+    plain, zero = (
+        _smoke_trainer(fixture_data),
+        _smoke_trainer(fixture_data, z_from_b_mean_ratio=0.0),
+    )
+    a, b = plain.sample(), zero.sample()
+    assert b.use_mean is None and torch.equal(a.use_b, b.use_b) and torch.equal(a.obs, b.obs)
+
+
+def test_z_source_ratios_must_be_a_distribution() -> None:
+    from fbil.errors import FbilError
+    from fbil.fb.config import FBTrainConfig
+
+    with pytest.raises(FbilError, match="sum to <= 1"):
+        FBTrainConfig(z_from_b_ratio=0.6, z_from_b_mean_ratio=0.5)

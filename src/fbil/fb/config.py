@@ -44,6 +44,13 @@ class FBTrainConfig:
     stddev_clip: float = 0.3
     ortho_coef: float = 1.0
     z_from_b_ratio: float = 0.5  # share of z drawn as B(s) of a dataset state
+    # Share of z drawn as the mean of B over a random subset of the batch's next states
+    # (subset size log-uniform in [2, batch]), taken from the Gaussian rows. Reward and
+    # demonstration z's (E[r B], E_demo[B]) are such averages: with constants in span B
+    # they lean on E[B] (cosine 0.6-0.8 on walker) far beyond single B(s) or Gaussian z's
+    # (99th percentile 0.28), so without them the actor never trains on the z's it is
+    # asked to serve (scripts/fb_diagnostics.py). 0 = the paper's two sources.
+    z_from_b_mean_ratio: float = 0.0
     steps: int = 1_000_000
     seed: int = 0
     log_every: int = 250
@@ -96,6 +103,12 @@ class FBTrainConfig:
             raise FbilError(f"nstep must be >= 1, got {self.nstep}")
         if self.q_loss_coef < 0:
             raise FbilError(f"q_loss_coef must be >= 0 (0: off), got {self.q_loss_coef}")
+        ratios = (self.z_from_b_ratio, self.z_from_b_mean_ratio)
+        if min(ratios) < 0 or sum(ratios) > 1:
+            raise FbilError(
+                "z_from_b_ratio and z_from_b_mean_ratio must be >= 0 and sum to <= 1 "
+                f"(got {ratios[0]}, {ratios[1]})"
+            )
         if self.snapshot_every < 0:
             raise FbilError(f"snapshot_every must be >= 0 (0: none), got {self.snapshot_every}")
         if self.freeze_b_step < 0:

@@ -1,7 +1,8 @@
 """FB pre-training: the FB loss, orthonormality of B, and the actor, on a dataset.
 
 One update, top to bottom (SPEC §4), for a batch of transitions (s_i, a_i, s'_i):
-  z_i      Gaussian on the sphere, or (half the rows) B of another next state of the batch
+  z_i      Gaussian on the sphere, or (half the rows) B of another next state of the batch,
+           or (z_from_b_mean_ratio) the mean of B over a random subset of the batch's next states
   M^k_ij = F^k(s_i, a_i, z_i)^T B(s'_j)                                (both heads)
   T_ij   = min_k Fbar^k(s'_i, a'_i, z_i)^T Bbar(s'_j), a'_i = mu(s'_i, z_i) + clipped noise
            (target_heads="mean": the mean of the two heads instead of the min)
@@ -115,6 +116,10 @@ class Batch(NamedTuple):
     z_gauss: torch.Tensor  # Gaussian z before projection
     perm: torch.Tensor  # which next state's B a row takes as its z
     use_b: torch.Tensor  # rows whose z is B of a next state
+    # z_from_b_mean_ratio > 0: rows whose z is a mean of B over a subset of next states,
+    # and each row's subset weights (n, n), rows summing to 1.
+    use_mean: torch.Tensor | None
+    mean_weights: torch.Tensor | None
     noise: torch.Tensor  # (2, n, act_dim): target-policy and actor smoothing noise
 
 
@@ -199,7 +204,17 @@ class FBTrainer:
         boot_obs = next_obs if cfg.nstep == 1 else self.obs[self.next_index[rows + cfg.nstep - 1]]
         z_gauss = torch.randn(n, self.mcfg.z_dim, generator=gen)
         perm = torch.randperm(n, generator=gen)
-        use_b = torch.rand(n, generator=gen) < cfg.z_from_b_ratio
+        u = torch.rand(n, generator=gen)
+        use_b = u < cfg.z_from_b_ratio
+        use_mean = mean_weights = None
+        if cfg.z_from_b_mean_ratio > 0:  # extra draws only then: other runs keep their stream
+            use_mean = (u >= cfg.z_from_b_ratio) & (
+                u < cfg.z_from_b_ratio + cfg.z_from_b_mean_ratio
+            )
+            size = torch.exp(torch.rand(n, 1, generator=gen) * math.log(n / 2)) * 2  # [2, n]
+            pick = (torch.rand(n, n, generator=gen) < size / n).float()
+            pick[:, 0] += pick.sum(1) == 0  # never an empty subset
+            mean_weights = pick / pick.sum(1, keepdim=True)
         # Two draws (target policy, then actor), as separate calls: one call of twice the
         # size would not give the same numbers.
         shape = (n, self.mcfg.act_dim)
@@ -214,6 +229,8 @@ class FBTrainer:
             z_gauss.to(to),
             perm.to(to),
             use_b.to(to),
+            None if use_mean is None else use_mean.to(to),
+            None if mean_weights is None else mean_weights.to(to),
             noise.clamp(-cfg.stddev_clip, cfg.stddev_clip).to(to),
         )
 
@@ -280,6 +297,9 @@ class FBTrainer:
         with amp, torch.set_grad_enabled(not frozen):
             b_next = m.backward_net(batch.next_obs).float()  # (n, d)
         z = torch.where(batch.use_b[:, None], b_next.detach()[batch.perm], batch.z_gauss)
+        if batch.use_mean is not None and batch.mean_weights is not None:
+            z_mean = batch.mean_weights @ b_next.detach()
+            z = torch.where(batch.use_mean[:, None], z_mean, z)
         z = self.sqrt_d * nn.functional.normalize(z, dim=-1)
         with torch.no_grad(), amp:
             next_action = (m.actor(batch.boot_obs, z) + batch.noise[0]).clamp(-1, 1)
