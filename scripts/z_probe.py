@@ -3,6 +3,8 @@ several ways of inferring z, and print each z's return and its cosine with z_r.
 
   z_r        E_rho[r(s') B(s')] over the relabeled dataset (`fbil zero-shot`)
   z_r>=0.5   E_rho[1{r(s') >= 0.5} B(s')]: the dataset's well-paid states only
+  z_r-mean   E_rho[(r(s') - mean r) B(s')]: the reward without its mean (the same optimal
+             policy for the exact model; z no longer leans on E[B])
   ERFB       E_demo[B(s')] from the task's first committed demonstration (fbil's erfb)
   demo r     E_demo[r(s') B(s')]: the demo's states weighted by their true reward
 
@@ -30,11 +32,11 @@ from fbil.imitation.core import prepare
 from fbil.imitation.demos import Demos
 from fbil.imitation.methods.reward import erfb
 
-NAMES = ("z_r", "z_r>=0.5", "ERFB", "demo r")
+NAMES = ("z_r", "z_r>=0.5", "z_r-mean", "ERFB", "demo r")
 
 
 def task_zs(model: FBModel, b: torch.Tensor, reward: torch.Tensor, demos: Demos) -> dict:
-    """The four z's of the module's doc for one task."""
+    """The z's of the module's doc for one task."""
     well_paid = (reward >= 0.5).float()
     batch = prepare(model, demos, gamma=model.gamma)
     z_er, _ = erfb(model, batch)
@@ -42,6 +44,7 @@ def task_zs(model: FBModel, b: torch.Tensor, reward: torch.Tensor, demos: Demos)
     return {
         "z_r": model.project_z((reward * b).mean(0)),
         "z_r>=0.5": model.project_z((well_paid * b).mean(0)),
+        "z_r-mean": model.project_z(((reward - reward.mean()) * b).mean(0)),
         "ERFB": z_er,
         "demo r": model.project_z((batch.weight * demo_r) @ batch.b_next),
     }
