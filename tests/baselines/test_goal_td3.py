@@ -90,9 +90,10 @@ def test_the_goal_distance_weighs_every_coordinate_by_its_spread(fixture_data: P
     cfg = dataclasses.replace(goal_preset("point_mass_maze", "smoke"), epsilon_steps=1.5)
     trainer = GoalTD3Trainer(cfg, data)
     assert trainer.mcfg.distance == "standardized"
-    assert trainer.mcfg.epsilon == pytest.approx(1.5 * median_step(data, std), rel=1e-3)
+    h = cfg.epsilon_horizon
+    assert trainer.mcfg.epsilon == pytest.approx(1.5 * median_step(data, std, h), rel=1e-3)
     raw = GoalTD3Trainer(dataclasses.replace(cfg, distance="raw"), data)
-    assert raw.mcfg.epsilon == pytest.approx(1.5 * median_step(data), rel=1e-6)
+    assert raw.mcfg.epsilon == pytest.approx(1.5 * median_step(data, None, h), rel=1e-6)
     batch = trainer.sampler()
     expected = goal_reward(batch.next_obs, batch.goal, trainer.mcfg.epsilon, trainer.sampler.scale)
     torch.testing.assert_close(batch.reward, expected)
@@ -226,3 +227,22 @@ def test_goal_td3_runs_end_to_end_from_the_command_line(
     assert [j.goal_model for j in jobs] == [str(out), None]
     row = run_job(jobs[0])
     assert row["family"] == "bfm" and row["goal_model"] == str(out) and row["lookahead"] == 10
+
+
+def test_the_radius_horizon_is_the_median_distance_h_steps_apart_in_one_episode(
+    fixture_data: Path,
+) -> None:
+    """median_step(h) pairs s_t with s_{t+h} of the same episode only, never across an end."""
+    import numpy as np
+
+    data = load_dataset(fixture_data)
+    obs, ends = data.observation, data.state_episode_end
+    starts = data.next_index - 1
+    pairs = [(t, t + 3) for t in starts if t + 3 <= ends[t]]
+    want = float(np.median([np.linalg.norm(obs[b] - obs[a]) for a, b in pairs]))
+    assert median_step(data, None, 3) == pytest.approx(want, rel=1e-6)
+    assert median_step(data, None, 3) > median_step(data, None, 1)
+    with pytest.raises(FbilError, match="lasts"):
+        median_step(data, None, 10**7)
+    with pytest.raises(FbilError, match="epsilon_horizon"):
+        dataclasses.replace(goal_preset("point_mass_maze", "smoke"), epsilon_horizon=0)

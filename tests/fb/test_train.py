@@ -317,3 +317,70 @@ def test_z_source_ratios_must_be_a_distribution() -> None:
 
     with pytest.raises(FbilError, match="sum to <= 1"):
         FBTrainConfig(z_from_b_ratio=0.6, z_from_b_mean_ratio=0.5)
+
+
+def test_ema_is_the_polyak_average_and_the_saved_model(fixture_data: Path, tmp_path: Path) -> None:
+    """ema_decay > 0: the average moves by (1 - decay_t) toward the trained weights each
+    update, the trained path is unchanged by it, and the saved model is the average."""
+    from fbil.fb.model import FBModel
+
+    plain = _smoke_trainer(fixture_data, steps=3)
+    avg = _smoke_trainer(fixture_data, steps=3, ema_decay=0.5)
+    before = {k: v.clone() for k, v in avg.ema.actor.state_dict().items()}
+    plain.update()
+    avg.update()
+    for key, value in plain.model.state_dict().items():  # the average leaves training alone
+        torch.testing.assert_close(avg.model.state_dict()[key], value, rtol=0, atol=0)
+    rate = 1 - min(0.5, 1 / 10)  # first update: decay_0 = (1 + 0) / (10 + 0)
+    for key, old in before.items():
+        want = old + rate * (avg.model.actor.state_dict()[key] - old)
+        torch.testing.assert_close(avg.ema.actor.state_dict()[key], want)
+    avg.fit(tmp_path / "run", progress=False)
+    saved = FBModel.load(tmp_path / "run")
+    obs = torch.randn(5, 4)
+    torch.testing.assert_close(saved.backward(obs), avg.ema.backward(obs))
+    assert not torch.allclose(saved.backward(obs), avg.model.backward(obs))
+    assert saved.metadata["ema_decay"] == 0.5
+
+
+def test_ema_snapshots_keep_the_trained_weights_beside_the_average(
+    fixture_data: Path, tmp_path: Path
+) -> None:
+    from fbil.fb.model import FBModel
+
+    trainer = _smoke_trainer(fixture_data, steps=20, snapshot_every=10, ema_decay=0.9)
+    trainer.fit(tmp_path, progress=False)
+    obs = torch.randn(5, 4)
+    for step in ("0000010", "0000020"):
+        assert (tmp_path / "snapshots" / f"step_{step}" / "model.safetensors").is_file()
+        raw = FBModel.load(tmp_path / "raw" / "snapshots" / f"step_{step}")
+        assert "ema_decay" not in raw.metadata
+    raw_last = FBModel.load(tmp_path / "raw" / "snapshots" / "step_0000020")
+    torch.testing.assert_close(raw_last.backward(obs), trainer.model.eval().backward(obs))
+
+
+def test_ema_survives_a_resume_exactly(fixture_data: Path, tmp_path: Path) -> None:
+    from fbil.checkpoint import load_state, save_state
+
+    straight = _smoke_trainer(fixture_data, steps=6, ema_decay=0.8)
+    for _ in range(6):
+        straight.update()
+    first = _smoke_trainer(fixture_data, steps=6, ema_decay=0.8)
+    for _ in range(3):
+        first.update()
+    save_state(tmp_path / "ckpt.safetensors", first.state())
+    second = _smoke_trainer(fixture_data, steps=6, ema_decay=0.8)
+    second.load(load_state(tmp_path / "ckpt.safetensors"))
+    for _ in range(3):
+        second.update()
+    for key, value in straight.ema.state_dict().items():
+        torch.testing.assert_close(second.ema.state_dict()[key], value, rtol=1e-6, atol=1e-7)
+
+
+@pytest.mark.parametrize("decay", [-0.1, 1.0])
+def test_ema_decay_outside_its_range_is_named(decay: float) -> None:
+    from fbil.errors import FbilError
+    from fbil.fb.config import FBTrainConfig
+
+    with pytest.raises(FbilError, match="ema_decay"):
+        FBTrainConfig(ema_decay=decay)

@@ -85,6 +85,13 @@ class FBTrainConfig:
     # lr_b of 1e-6 keeps B nearly still for most of its 10^6+ steps; this gets there in
     # the steps a CPU affords.
     freeze_b_step: int = 0
+    # Polyak average of the whole model (F, B, actor) kept beside the trained one, with
+    # this decay per update (0: off); the saved model (and its snapshots) is then the
+    # average, the trained weights go to raw/snapshots/. Zero-shot policies of a single
+    # run swing by hundreds from one snapshot to the next (walker, 512 units): the last
+    # iterate is one point of a noisy path, the average a smoother estimate of it. The
+    # first updates use min(decay, (1 + t) / (10 + t)), so the random init fades fast.
+    ema_decay: float = 0.0
 
     def __post_init__(self) -> None:
         if self.steps < 1 or self.batch_size < 2:
@@ -111,6 +118,8 @@ class FBTrainConfig:
             )
         if self.snapshot_every < 0:
             raise FbilError(f"snapshot_every must be >= 0 (0: none), got {self.snapshot_every}")
+        if not 0 <= self.ema_decay < 1:
+            raise FbilError(f"ema_decay must be in [0, 1) (0: off), got {self.ema_decay}")
         if self.freeze_b_step < 0:
             raise FbilError(f"freeze_b_step must be >= 0 (0: never), got {self.freeze_b_step}")
 

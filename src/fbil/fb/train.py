@@ -12,6 +12,8 @@ One update, top to bottom (SPEC §4), for a batch of transitions (s_i, a_i, s'_i
            (clamped to [-1, 1]; actor_clamp="straight_through": gradient as if unclamped)
   optional (q_loss_coef > 0): L_Q = sum_k 1/2 mean_i (F^k(s_i, a_i, z_i)^T z_i - y_i)^2,
   y_i = b_i^T Cov^-1 z_i + gamma min_k Fbar^k(s'_i, a'_i, z_i)^T z_i, Cov = B^T B / n
+ema_decay > 0: after each update, ema <- ema + (1 - decay_t) (model - ema) for every weight of
+F, B and the actor, decay_t = min(decay, (1 + t) / (10 + t)); the saved model is the average.
 Off-diagonal means are taken as (sum - trace) / (n (n - 1)): no masks; the sums of
 squares go through d x d Gram matrices (F^T F, B^T B) and T B, so that M (n x n per head)
 and B B^T are never formed (offdiag_residual_sq).
@@ -154,6 +156,10 @@ class FBTrainer:
             self.model.actor.parameters(), lr=train_config.lr_actor, fused=True
         )
         self.gen = torch.Generator(device="cpu").manual_seed(train_config.seed)
+        # The averaged model (ema_decay > 0): what is saved for inference.
+        self.ema: FBModel | None = None
+        if train_config.ema_decay > 0:
+            self.ema = copy.deepcopy(self.model).requires_grad_(False).eval()
         # The dataset as tensors, once: sampling is then pure tensor indexing.
         self.obs = torch.from_numpy(dataset.observation).to(self.device)
         self.action = torch.from_numpy(dataset.action).to(self.device)
@@ -184,6 +190,7 @@ class FBTrainer:
         fb_metrics, z = self.update_fb(batch)
         actor_metrics = self.update_actor(batch, z)
         self.update_targets()
+        self.update_ema()
         self.step += 1
         return {**fb_metrics, **actor_metrics}
 
@@ -283,6 +290,21 @@ class FBTrainer:
             for tb, b in zip(self.b_target.buffers(), m.backward_net.buffers(), strict=True):
                 tb.copy_(b)
 
+    @torch.no_grad()
+    def update_ema(self) -> None:
+        """The model's Polyak average (ema_decay > 0; batch-norm statistics copied)."""
+        if self.ema is None:
+            return
+        rate = 1.0 - min(self.cfg.ema_decay, (1.0 + self.step) / (10.0 + self.step))
+        nets = [(self.model.forward_net, self.ema.forward_net)]
+        nets += [(self.model.backward_net, self.ema.backward_net)]
+        nets += [(self.model.actor, self.ema.actor)]
+        for net, avg in nets:
+            torch._foreach_lerp_(list(avg.parameters()), list(net.parameters()), rate)
+            if self.mcfg.b_norm == "batchnorm":
+                for ab, b in zip(avg.buffers(), net.buffers(), strict=True):
+                    ab.copy_(b)
+
     # -- the losses: pure functions of a batch (what `compile` compiles) ----------------
     def _autocast(self) -> torch.autocast:
         # bf16 autocast runs the networks' matmuls at ~2-3x the fp32 rate on AVX-512 CPUs;
@@ -376,9 +398,10 @@ class FBTrainer:
 
     # -- Cov B ----------------------------------------------------------------------------
     @torch.no_grad()
-    def compute_cov_b(self, chunk: int = 65_536) -> torch.Tensor:
-        """E_{s~rho}[B(s) B(s)^T] over every next state of the dataset (eval mode)."""
-        net = self.model.backward_net
+    def compute_cov_b(self, chunk: int = 65_536, model: FBModel | None = None) -> torch.Tensor:
+        """E_{s~rho}[B(s) B(s)^T] over every next state of the dataset (eval mode), for
+        `model` (default: the trained one)."""
+        net = (model or self.model).backward_net
         was_training = net.training
         net.eval()
         d = self.mcfg.z_dim
@@ -391,7 +414,9 @@ class FBTrainer:
 
     # -- checkpoints ---------------------------------------------------------------------
     def state(self) -> dict[str, Any]:
+        ema = {} if self.ema is None else {"ema": self.ema.state_dict()}
         return {
+            **ema,
             "model": self.model.state_dict(),
             "f_target": self.f_target.state_dict(),
             "b_target": self.b_target.state_dict(),
@@ -410,6 +435,9 @@ class FBTrainer:
             self.b_target.load_state_dict(state["b_target"])
             self.opt_fb.load_state_dict(state["opt_fb"])
             self.opt_actor.load_state_dict(state["opt_actor"])
+            if self.ema is not None:
+                # A checkpoint saved without an average starts it from the trained weights.
+                self.ema.load_state_dict(state.get("ema", state["model"]))
         except (KeyError, RuntimeError) as exc:
             first = str(exc).strip().splitlines()[0]
             raise FbilError(f"checkpoint does not match this model ({first})") from None
@@ -502,7 +530,10 @@ class FBTrainer:
                 last_log, steps_at_log = now, self.step
             every = self.cfg.snapshot_every
             if every and self.step % every == 0:
-                self._save_model(out / "snapshots" / f"step_{self.step:07d}", manifest, wall)
+                name = Path("snapshots") / f"step_{self.step:07d}"
+                self._save_model(out / name, manifest, wall)
+                if self.ema is not None:  # the trained weights too, to compare
+                    self._save_model(out / "raw" / name, manifest, wall, raw=True)
             if now - last_ckpt >= self.cfg.checkpoint_seconds:
                 fh.flush()
                 save_state(out / CHECKPOINT, self.state())
@@ -538,10 +569,16 @@ class FBTrainer:
             history.append({"dataset": here, "from_step": self.step})
         return history
 
-    def _save_model(self, out: Path, manifest: dict[str, Any] | None, wall: float) -> None:
-        """The inference model as it is now, with Cov B over the whole dataset."""
-        self.model.cov_b.copy_(self.compute_cov_b())
-        self.model.metadata.update(
+    def _save_model(
+        self, out: Path, manifest: dict[str, Any] | None, wall: float, raw: bool = False
+    ) -> None:
+        """The inference model as it is now (the average when ema_decay > 0, unless `raw`),
+        with Cov B over the whole dataset."""
+        model = self.model if raw or self.ema is None else self.ema
+        if model is self.ema:
+            model.metadata = dict(self.model.metadata, ema_decay=self.cfg.ema_decay)
+        model.cov_b.copy_(self.compute_cov_b(model=model))
+        model.metadata.update(
             train_config=dataclasses.asdict(self.cfg),
             steps=self.step,
             dataset=str(self.dataset.root),
@@ -549,4 +586,4 @@ class FBTrainer:
             git_commit=git_commit(),
             wall_seconds=round(wall, 1),
         )
-        self.model.save(out)
+        model.save(out)
