@@ -157,7 +157,13 @@ _CPU_TRAIN: dict[str, dict[str, Any]] = {
         "freeze_b_step": 10_000,
         "steps": 200_000,
     },
+    # Walker (docs/walker.md, sessions 11-12): 256-unit F and actor never walked with z_r in
+    # 300 000 updates; at 512 units they walk, but the policy for a fixed z swings by
+    # hundreds between snapshots; the Polyak-averaged model (ema_decay) is saved instead.
+    "walker": {"lr_b": 1e-4, "ema_decay": 0.9995, "steps": 100_000},
 }
+# The cpu preset's F and actor widths per domain (others: 256 units, embeddings 128).
+_CPU_WIDTH: dict[str, dict[str, int]] = {"walker": {"f_hidden": 512, "f_embed": 256}}
 
 
 def preset(domain: str, name: str) -> tuple[FBModelConfig, FBTrainConfig]:
@@ -179,7 +185,8 @@ def preset(domain: str, name: str) -> tuple[FBModelConfig, FBTrainConfig]:
         # Measured on 2 cores: hidden 256 / batch 512 / d 50 is what a couple of hours
         # buys, and bf16 autocast doubles the update rate (benchmarks/fb_update.py). The
         # actor keeps lr 1e-4, since the paper's 1e-6 needs its millions of steps.
-        model = replace(model, z_dim=50, f_hidden=256, f_embed=128, normalize_obs=True)
+        width = _CPU_WIDTH.get(domain, {"f_hidden": 256, "f_embed": 128})
+        model = replace(model, z_dim=50, normalize_obs=True, **width)
         train = replace(train, batch_size=512, lr_actor=1e-4, steps=150_000, precision="bf16")
         return model, replace(train, **_CPU_TRAIN.get(domain, {"lr_b": 1e-4}))
     model = replace(model, z_dim=8, b_hidden=32, f_hidden=32, f_embed=16)
