@@ -163,7 +163,7 @@ _CPU_TRAIN: dict[str, dict[str, Any]] = {
     "walker": {"lr_b": 1e-4, "ema_decay": 0.9995, "steps": 100_000},
 }
 # The cpu preset's F and actor widths per domain (others: 256 units, embeddings 128).
-_CPU_WIDTH: dict[str, dict[str, int]] = {"walker": {"f_hidden": 512, "f_embed": 256}}
+_CPU_WIDTH: dict[str, tuple[int, int]] = {"walker": (512, 256)}  # (f_hidden, f_embed)
 
 
 def preset(domain: str, name: str) -> tuple[FBModelConfig, FBTrainConfig]:
@@ -185,8 +185,8 @@ def preset(domain: str, name: str) -> tuple[FBModelConfig, FBTrainConfig]:
         # Measured on 2 cores: hidden 256 / batch 512 / d 50 is what a couple of hours
         # buys, and bf16 autocast doubles the update rate (benchmarks/fb_update.py). The
         # actor keeps lr 1e-4, since the paper's 1e-6 needs its millions of steps.
-        width = _CPU_WIDTH.get(domain, {"f_hidden": 256, "f_embed": 128})
-        model = replace(model, z_dim=50, normalize_obs=True, **width)
+        hidden, embed = _CPU_WIDTH.get(domain, (256, 128))
+        model = replace(model, z_dim=50, f_hidden=hidden, f_embed=embed, normalize_obs=True)
         train = replace(train, batch_size=512, lr_actor=1e-4, steps=150_000, precision="bf16")
         return model, replace(train, **_CPU_TRAIN.get(domain, {"lr_b": 1e-4}))
     model = replace(model, z_dim=8, b_hidden=32, f_hidden=32, f_embed=16)

@@ -296,9 +296,12 @@ class FBTrainer:
         if self.ema is None:
             return
         rate = 1.0 - min(self.cfg.ema_decay, (1.0 + self.step) / (10.0 + self.step))
-        nets = [(self.model.forward_net, self.ema.forward_net)]
-        nets += [(self.model.backward_net, self.ema.backward_net)]
-        nets += [(self.model.actor, self.ema.actor)]
+        m, ema = self.model, self.ema
+        nets: list[tuple[nn.Module, nn.Module]] = [
+            (m.forward_net, ema.forward_net),
+            (m.backward_net, ema.backward_net),
+            (m.actor, ema.actor),
+        ]
         for net, avg in nets:
             torch._foreach_lerp_(list(avg.parameters()), list(net.parameters()), rate)
             if self.mcfg.b_norm == "batchnorm":
