@@ -283,12 +283,9 @@ class FBTrainer:
     @torch.no_grad()
     def update_targets(self) -> None:
         """Polyak averaging of F and B's targets (batch-norm statistics copied)."""
-        m, tau = self.model, self.cfg.tau
-        for net, tgt in ((m.forward_net, self.f_target), (m.backward_net, self.b_target)):
-            torch._foreach_lerp_(list(tgt.parameters()), list(net.parameters()), tau)
-        if self.mcfg.b_norm == "batchnorm":
-            for tb, b in zip(self.b_target.buffers(), m.backward_net.buffers(), strict=True):
-                tb.copy_(b)
+        m = self.model
+        pairs = [(m.forward_net, self.f_target), (m.backward_net, self.b_target)]
+        self._polyak(pairs, self.cfg.tau)
 
     @torch.no_grad()
     def update_ema(self) -> None:
@@ -297,12 +294,14 @@ class FBTrainer:
             return
         rate = 1.0 - min(self.cfg.ema_decay, (1.0 + self.step) / (10.0 + self.step))
         m, ema = self.model, self.ema
-        nets: list[tuple[nn.Module, nn.Module]] = [
-            (m.forward_net, ema.forward_net),
-            (m.backward_net, ema.backward_net),
-            (m.actor, ema.actor),
-        ]
-        for net, avg in nets:
+        pairs = [(m.forward_net, ema.forward_net), (m.backward_net, ema.backward_net)]
+        self._polyak([*pairs, (m.actor, ema.actor)], rate)
+
+    def _polyak(self, pairs: list[tuple[nn.Module, nn.Module]], rate: float) -> None:
+        """avg <- avg + rate (net - avg) for each (net, avg) pair's parameters; with batch
+        norm, the buffers (its running statistics; the input statistics are constants)
+        are copied, not averaged."""
+        for net, avg in pairs:
             torch._foreach_lerp_(list(avg.parameters()), list(net.parameters()), rate)
             if self.mcfg.b_norm == "batchnorm":
                 for ab, b in zip(avg.buffers(), net.buffers(), strict=True):
