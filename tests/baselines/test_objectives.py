@@ -10,6 +10,7 @@ import pytest
 import torch
 from torch import distributions as D
 
+from fbil.agents.td3 import run_mlp
 from fbil.baselines import demodice, lobsdice, smodice, sqil
 from fbil.baselines.common import Transitions
 from fbil.baselines.dice import DualConfig, advantage, chi2_conjugate, dice_weights, dual_loss
@@ -54,13 +55,15 @@ def test_sqil_balances_minibatches_and_labels_expert_rows_1(
     assert bool(from_demos.all())
 
 
-def test_sac_log_likelihood_is_the_tanh_gaussians(fixture_data: Path) -> None:
-    agent = SAC(load_dataset(fixture_data), SACConfig(hidden=16), seed=0)
+@pytest.mark.parametrize("precision", ["fp32", "bf16"])
+def test_sac_log_likelihood_is_the_tanh_gaussians(fixture_data: Path, precision: str) -> None:
+    cfg = SACConfig(hidden=16, precision=precision)  # type: ignore[arg-type]
+    agent = SAC(load_dataset(fixture_data), cfg, seed=0)
     obs = torch.randn(64, 4)
     gen_state = agent.gen.get_state()
     action, log_pi = agent.sample(obs)
     agent.gen.set_state(gen_state)
-    out = agent.actor(agent.norm(obs))
+    out = run_mlp(agent.actor, agent.norm(obs), precision)
     mean, log_std = out[:, :2], out[:, 2:].clamp(-5, 2)
     eps = torch.randn(mean.shape, generator=agent.gen)
     u = mean + log_std.exp() * eps

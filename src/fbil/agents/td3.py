@@ -61,6 +61,18 @@ def _mlp(inp: int, hidden: int, out: int) -> nn.Sequential:
     )
 
 
+def run_mlp(mlp: nn.Module, x: torch.Tensor, precision: str) -> torch.Tensor:
+    """An MLP of `_mlp`; with bf16, its hidden layers under autocast and its last layer
+    in fp32 (Q values near 100 keep their resolution: bf16 has 8 bits of mantissa)."""
+    if precision == "fp32":
+        return mlp(x)
+    layers = list(mlp.children())
+    with torch.autocast("cpu", torch.bfloat16):
+        for layer in layers[:-1]:
+            x = layer(x)
+    return layers[-1](x.float())
+
+
 class TD3:
     def __init__(
         self,
@@ -94,15 +106,7 @@ class TD3:
         return (obs - self.obs_stats[0]) / self.obs_stats[1]
 
     def _run(self, mlp: nn.Module, x: torch.Tensor) -> torch.Tensor:
-        """An MLP of `_mlp`; with bf16, its hidden layers under autocast and its last layer
-        in fp32 (Q values near 100 keep their resolution: bf16 has 8 bits of mantissa)."""
-        if self.cfg.precision == "fp32":
-            return mlp(x)
-        layers = list(mlp.children())
-        with torch.autocast("cpu", torch.bfloat16):
-            for layer in layers[:-1]:
-                x = layer(x)
-        return layers[-1](x.float())
+        return run_mlp(mlp, x, self.cfg.precision)
 
     def _pi(self, net: nn.Sequential, obs: torch.Tensor) -> torch.Tensor:
         return torch.tanh(self._run(net[0], self._norm(obs)))

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Literal
 
 import torch
 
@@ -32,6 +32,9 @@ class OfflineTD3Config:
     tau: float = 0.01  # target momentum 0.99
     policy_noise: float = 0.2
     noise_clip: float = 0.3
+    # bf16 autocast on the hidden layers (last layers, losses and Adam in fp32): 2.08x less
+    # CPU time per update at the maze size (15.8 against 7.6 ms, 1 thread); see docs.
+    precision: Literal["fp32", "bf16"] = "bf16"
 
     def td3(self, domain: str) -> TD3Config:
         return TD3Config(
@@ -42,6 +45,7 @@ class OfflineTD3Config:
             tau=self.tau,
             policy_noise=self.policy_noise,
             noise_clip=self.noise_clip,
+            precision=self.precision,
         )
 
 

@@ -17,14 +17,14 @@ import copy
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 import torch
 from torch import nn
 from torch.nn import functional as F
 
-from fbil.agents.td3 import _mlp
+from fbil.agents.td3 import _mlp, run_mlp
 from fbil.baselines.bc import LOG_STD
 from fbil.baselines.common import Transitions, paper_gamma, standardiser
 from fbil.baselines.offline_td3 import MixedSampler
@@ -42,6 +42,9 @@ class SACConfig:
     tau: float = 0.01
     temperature: float | None = None  # None: learned from `init_temperature`
     init_temperature: float = 0.1
+    # bf16 autocast on the hidden layers (last layers, losses and Adam in fp32), as
+    # `OfflineTD3Config.precision`; "fp32": plain.
+    precision: Literal["fp32", "bf16"] = "bf16"
 
 
 class SAC:
@@ -56,8 +59,9 @@ class SAC:
         self.targets = copy.deepcopy(self.critics).requires_grad_(False)
         start = cfg.temperature if cfg.temperature is not None else cfg.init_temperature
         self.log_alpha = torch.tensor(math.log(start), requires_grad=cfg.temperature is None)
-        self.actor_opt = torch.optim.Adam(self.actor.parameters(), lr=cfg.lr)
-        self.critic_opt = torch.optim.Adam(self.critics.parameters(), lr=cfg.lr)
+        # fused: one kernel per step for all parameters (the same update as the loop).
+        self.actor_opt = torch.optim.Adam(self.actor.parameters(), lr=cfg.lr, fused=True)
+        self.critic_opt = torch.optim.Adam(self.critics.parameters(), lr=cfg.lr, fused=True)
         self.alpha_opt = torch.optim.Adam([self.log_alpha], lr=cfg.lr)
         self.gen = torch.Generator().manual_seed(seed)
 
@@ -70,7 +74,7 @@ class SAC:
 
     def sample(self, obs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """a = tanh(u), u ~ N(mean(s), std(s)) reparametrised, and log pi(a|s) (B,)."""
-        out = self.actor(self.norm(obs))
+        out = run_mlp(self.actor, self.norm(obs), self.cfg.precision)
         mean, log_std = out[:, : self.act_dim], out[:, self.act_dim :].clamp(*LOG_STD)
         eps = torch.randn(mean.shape, generator=self.gen)
         u = mean + log_std.exp() * eps
@@ -80,7 +84,7 @@ class SAC:
 
     def q(self, nets: nn.ModuleList, obs: torch.Tensor, action: torch.Tensor) -> torch.Tensor:
         x = torch.cat([self.norm(obs), action], -1)
-        return torch.cat([n(x) for n in nets], -1)  # (B, 2)
+        return torch.cat([run_mlp(n, x, self.cfg.precision) for n in nets], -1)  # (B, 2)
 
     def soft_value(self, obs: torch.Tensor, nets: nn.ModuleList) -> torch.Tensor:
         """V(s) = min_i Q_i(s, a) - alpha log pi(a|s), one a ~ pi (no actor gradient)."""
@@ -125,7 +129,8 @@ class SAC:
     @torch.no_grad()
     def act(self, obs: np.ndarray) -> np.ndarray:
         """The actor's mean action tanh(mean(s))."""
-        out = self.actor(self.norm(torch.as_tensor(obs, dtype=torch.float32)))
+        obs_t = torch.as_tensor(obs, dtype=torch.float32)
+        out = run_mlp(self.actor, self.norm(obs_t), self.cfg.precision)
         return torch.tanh(out[:, : self.act_dim]).numpy()
 
     def state(self) -> dict[str, Any]:
