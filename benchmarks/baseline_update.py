@@ -49,7 +49,7 @@ def _batch(obs: int, act: int, n: int, gen: torch.Generator) -> Transitions:
 
 def td3_step(domain: str, precision: str) -> Callable[[], Any]:
     spec = get_domain(domain)
-    cfg = dataclasses.replace(OfflineTD3Config(), precision=precision).td3(domain)
+    cfg = dataclasses.replace(OfflineTD3Config(), precision=precision).td3(domain)  # type: ignore[arg-type]
     agent = TD3(spec.obs_dim, spec.act_dim, cfg, seed=0)
     gen = torch.Generator().manual_seed(0)
 
