@@ -55,15 +55,16 @@ def _cmd_render(args: argparse.Namespace) -> int:
 
     spec = get_domain(args.domain)
     get_task(args.domain, args.task)
-    if args.policy != "random":
-        raise FbilError(f"unknown policy {args.policy!r}; valid policies: random")
     suffix = Path(args.out).suffix.lower()
     if suffix not in IMAGE_SUFFIXES + ANIMATION_SUFFIXES:
         raise FbilError(
             f"unsupported picture type {suffix or '(none)'!r} for {args.out}; use one of "
             f"{', '.join(IMAGE_SUFFIXES + ANIMATION_SUFFIXES)}"
         )
-    policy = RandomPolicy(spec.act_dim, seed=args.seed)
+    if args.policy == "random":
+        policy: Any = RandomPolicy(spec.act_dim, seed=args.seed)
+    else:
+        policy = _saved_policy(args.policy, args.model, spec.name, spec.obs_dim, spec.act_dim)
     request = RenderRequest(
         args.task, policy, args.seed, args.episodes, args.steps, args.frames, Path(args.out)
     )
@@ -73,6 +74,33 @@ def _cmd_render(args: argparse.Namespace) -> int:
     else:
         print(f"wrote {args.out}")
     return 0
+
+
+def _saved_policy(path: str, model_dir: str | None, domain: str, obs_dim: int, act_dim: int) -> Any:
+    """A policy file of `fbil imitate --out`, checked to act in `domain`."""
+    import numpy as np
+
+    from fbil.imitators import load_policy
+
+    model = None
+    if model_dir is not None:
+        from fbil.fb.model import FBModel
+
+        model = FBModel.load(model_dir)
+        if model.domain not in (None, domain):
+            raise FbilError(f"the model {model_dir} is for {model.domain}, not {domain}")
+    policy = load_policy(path, model)
+    try:
+        action = policy.act(np.zeros((1, obs_dim), np.float32), 0)
+    except RuntimeError:
+        action = None
+    if action is None or np.shape(action) != (1, act_dim):
+        raise FbilError(
+            f"{path}: the policy does not act on {domain}'s {obs_dim}-dim observations "
+            f"with {act_dim} actions; render it in its own domain"
+        )
+    policy.reset()
+    return policy
 
 
 def _cmd_collect(args: argparse.Namespace) -> int:
@@ -616,7 +644,12 @@ def _add_render(sub: Any) -> None:
     )
     p.add_argument("domain")
     p.add_argument("task")
-    p.add_argument("--policy", default="random", help="policy to roll out")
+    p.add_argument(
+        "--policy",
+        default="random",
+        help="random, or a policy file of `fbil imitate --out` (.json or .safetensors)",
+    )
+    p.add_argument("--model", default=None, help="FB model folder, for an FB-IL policy file")
     p.add_argument("--out", required=True, help="maze: .png/.pdf/.svg; others also .gif/.mp4")
     p.add_argument("--episodes", type=int, default=5, help="maze: trajectories drawn")
     p.add_argument("--steps", type=int, default=None, help="steps per episode")

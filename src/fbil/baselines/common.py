@@ -12,7 +12,9 @@ from typing import Any
 import numpy as np
 import torch
 
-from fbil.checkpoint import save_state
+from fbil.agents.td3 import _mlp, run_mlp
+from fbil.checkpoint import load_state, save_state
+from fbil.errors import FbilError
 from fbil.imitation.demos import Demos
 from fbil.imitators.base import FitContext, Imitator, Policy
 from fbil.imitators.budgets import Budgets
@@ -107,8 +109,10 @@ class TrainedPolicy:
         act_fn: Callable[[np.ndarray], np.ndarray],
         state: dict[str, Any],
         info: dict[str, float],
+        precision: str = "fp32",
     ) -> None:
         self.method, self.act_fn, self.state, self.info = method, act_fn, state, dict(info)
+        self.precision = precision  # how the network ran in training and acts (`run_mlp`)
 
     @torch.no_grad()
     def act(self, obs: np.ndarray, step: int | None = None) -> np.ndarray:
@@ -124,7 +128,46 @@ class TrainedPolicy:
         return dict(self.info)
 
     def save(self, path: str | Path) -> Path:
-        return save_state(path, {"method": self.method, "info": self.info, **self.state})
+        """The network, its input statistics and what `load_trained_policy` needs to act
+        as this policy does (method, precision, action size)."""
+        obs_dim = int(self.state["obs_stats"].shape[1])
+        act_dim = int(self.act(np.zeros((1, obs_dim), np.float32)).shape[1])
+        meta = {"method": self.method, "info": self.info, "precision": self.precision}
+        return save_state(path, {**meta, "act_dim": act_dim, **self.state})
+
+
+_NETS = ("actor", "net")  # where a policy file keeps its network: TD3 / SAC, or BC's
+
+
+def load_trained_policy(path: str | Path) -> TrainedPolicy:
+    """A baseline's policy file (`TrainedPolicy.save`) as a policy that acts as it did:
+    tanh of the network's first act_dim outputs on standardised states."""
+    state = load_state(path)
+    found = [k for k in _NETS if isinstance(state.get(k), dict)]
+    if not found or "obs_stats" not in state or "act_dim" not in state:
+        raise FbilError(
+            f"{path}: not a baseline policy file (expected a network, obs_stats and act_dim, "
+            "written by `fbil imitate --out`); re-run `fbil imitate` to write it"
+        )
+    weights = dict(state[found[0]])
+    if all(k.startswith("0.") for k in weights):  # TD3's actor: Sequential(_mlp, Tanh)
+        weights = {k[2:]: v for k, v in weights.items()}
+    try:
+        hidden, inp = weights["0.weight"].shape
+        net = _mlp(int(inp), int(hidden), int(weights["5.weight"].shape[0]))
+        net.load_state_dict(weights)
+    except (KeyError, RuntimeError, ValueError) as exc:
+        raise FbilError(f"{path}: the network does not match App. D's MLP ({exc})") from None
+    stats, act_dim = state["obs_stats"].float(), int(state["act_dim"])
+    precision = str(state.get("precision", "fp32"))
+    net.requires_grad_(False)
+
+    def act(o: np.ndarray) -> np.ndarray:
+        out = run_mlp(net, (torch.as_tensor(o) - stats[0]) / stats[1], precision)
+        return torch.tanh(out[:, :act_dim]).numpy()
+
+    kept = {found[0]: state[found[0]], "obs_stats": stats}
+    return TrainedPolicy(str(state.get("method", "?")), act, kept, state.get("info", {}), precision)
 
 
 def trained_imitator(

@@ -347,6 +347,20 @@ class GoalTrackingPolicy:
         }
         return atomic_write_text(path, json.dumps(body) + "\n")
 
+    @classmethod
+    def load(cls, path: str | Path) -> GoalTrackingPolicy:
+        """A file of `save`, with the goal model it names."""
+        try:
+            body = json.loads(Path(path).read_text())
+            goals = np.asarray(body["goals"], np.float32)
+            model = GoalModel.load(body["goal_model"])
+            lookahead = int(body.get("lookahead", LOOKAHEAD))
+        except (OSError, json.JSONDecodeError, KeyError, TypeError, ValueError) as exc:
+            raise FbilError(f"{path}: not a goal-tracking policy file ({exc})") from None
+        if goals.ndim != 2 or goals.shape[1] != model.config.obs_dim:
+            raise FbilError(f"{path}: goals of shape {goals.shape} do not fit the goal model")
+        return cls(model, goals, lookahead)
+
 
 def fit(demos: Demos, context: FitContext) -> GoalTrackingPolicy:
     model: GoalModel = context.goal_model  # its domain and sizes: `Imitator.check`

@@ -85,7 +85,7 @@ def fit(demos: Demos, context: FitContext) -> TrainedPolicy:
     agent, info = train_sac(
         context.dataset, update, cfg.sac, context.seed, expert, cfg.expert_ratio
     )
-    return TrainedPolicy("iqlearn", agent.act, agent.state(), info)
+    return TrainedPolicy("iqlearn", agent.act, agent.state(), info, agent.cfg.precision)
 
 
 IMITATOR = trained_imitator(

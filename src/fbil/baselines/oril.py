@@ -144,7 +144,7 @@ def _imitator(name: str) -> Imitator:
             context.seed,
             expert=demo_transitions(demos) if kind == "sa" else None,
         )
-        return TrainedPolicy(name, agent.act, agent_state(agent), info)
+        return TrainedPolicy(name, agent.act, agent_state(agent), info, agent.cfg.precision)
 
     principle = {"sa": "reward (discriminator)", "s": "reward (state discr.)"}
     return trained_imitator(

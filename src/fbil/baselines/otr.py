@@ -137,7 +137,7 @@ def fit(demos: Demos, context: FitContext) -> TrainedPolicy:
 
     agent, info = train_offline_td3(context.dataset, label, cfg.td3, context.seed)
     info["otr_reward_mean"] = round(float(rewards.mean()), 5)
-    return TrainedPolicy("otr", agent.act, agent_state(agent), info)
+    return TrainedPolicy("otr", agent.act, agent_state(agent), info, agent.cfg.precision)
 
 
 IMITATOR = trained_imitator(

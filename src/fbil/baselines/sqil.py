@@ -42,7 +42,7 @@ def fit(demos: Demos, context: FitContext) -> TrainedPolicy:
     agent, info = train_sac(
         context.dataset, sqil_update, cfg.sac, context.seed, expert, cfg.expert_ratio
     )
-    return TrainedPolicy("sqil", agent.act, agent.state(), info)
+    return TrainedPolicy("sqil", agent.act, agent.state(), info, agent.cfg.precision)
 
 
 IMITATOR = trained_imitator(

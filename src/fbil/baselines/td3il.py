@@ -47,7 +47,7 @@ def fit(demos: Demos, context: FitContext) -> TrainedPolicy:
         expert=demo_transitions(demos),
         expert_ratio=cfg.expert_ratio,
     )
-    return TrainedPolicy("td3il", agent.act, agent_state(agent), info)
+    return TrainedPolicy("td3il", agent.act, agent_state(agent), info, agent.cfg.precision)
 
 
 IMITATOR = trained_imitator(

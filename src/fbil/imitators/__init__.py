@@ -3,6 +3,7 @@ behaviour foundation models) behind one interface and one registry of names."""
 
 from fbil.imitators.base import FAMILIES, FitContext, Fitted, Imitator, Policy
 from fbil.imitators.budgets import Budgets, parse_budget, scale_steps
+from fbil.imitators.files import load_policy
 from fbil.imitators.registry import (
     Selection,
     family_of,
@@ -25,6 +26,7 @@ __all__ = [
     "fit",
     "get_imitator",
     "imitators",
+    "load_policy",
     "parse_budget",
     "principle_of",
     "resolve",
