@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 import torch
-from fb_update import interleaved_rates
+from td3_update import bf16_against_fp32
 
 from fbil.agents.td3 import TD3
 from fbil.baselines.common import Transitions
@@ -96,16 +96,7 @@ def main() -> None:
         for step in steps.values():
             for _ in range(3):  # allocations, first calls
                 step()
-        rates = interleaved_rates(steps, args.seconds)
-        bf16, fp32 = rates["bf16"], rates["fp32"]
-        result[name] = {
-            "bf16_steps_per_s": round(bf16["steps_per_s"], 1),
-            "fp32_steps_per_s": round(fp32["steps_per_s"], 1),
-            "speedup": round(bf16["steps_per_s"] / fp32["steps_per_s"], 2),
-            "bf16_cpu_ms_per_step": round(bf16["cpu_ms"], 2),
-            "fp32_cpu_ms_per_step": round(fp32["cpu_ms"], 2),
-            "cpu_speedup": round(fp32["cpu_ms"] / bf16["cpu_ms"], 2),
-        }
+        result[name] = bf16_against_fp32(steps["bf16"], steps["fp32"], args.seconds)
     if args.json:
         print(json.dumps(result))
         return

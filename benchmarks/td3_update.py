@@ -14,6 +14,8 @@ from __future__ import annotations
 import argparse
 import json
 import time
+from collections.abc import Callable
+from typing import Any
 
 import torch
 from fb_update import interleaved_rates
@@ -43,6 +45,22 @@ def updater(domain: str, precision: str) -> tuple[TD3, object]:
     return agent, step
 
 
+def bf16_against_fp32(
+    bf16_step: Callable[[], Any], fp32_step: Callable[[], Any], seconds: float
+) -> dict[str, float]:
+    """Rates of two update callables timed in alternating slices, and their ratios."""
+    rates = interleaved_rates({"bf16": bf16_step, "fp32": fp32_step}, seconds)
+    bf16, fp32 = rates["bf16"], rates["fp32"]
+    return {
+        "bf16_steps_per_s": round(bf16["steps_per_s"], 1),
+        "fp32_steps_per_s": round(fp32["steps_per_s"], 1),
+        "speedup": round(bf16["steps_per_s"] / fp32["steps_per_s"], 2),
+        "bf16_cpu_ms_per_step": round(bf16["cpu_ms"], 2),
+        "fp32_cpu_ms_per_step": round(fp32["cpu_ms"], 2),
+        "cpu_speedup": round(fp32["cpu_ms"] / bf16["cpu_ms"], 2),
+    }
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--threads", type=int, default=1, help="1, as experts train")
@@ -53,17 +71,10 @@ def main() -> None:
     torch.set_num_threads(args.threads)
     _, bf16_step = updater(args.domain, "bf16")
     _, fp32_step = updater(args.domain, "fp32")
-    rates = interleaved_rates({"bf16": bf16_step, "fp32": fp32_step}, args.seconds)
-    bf16, fp32 = rates["bf16"], rates["fp32"]
     result = {
         "threads": torch.get_num_threads(),
         "domain": args.domain,
-        "bf16_steps_per_s": round(bf16["steps_per_s"], 1),
-        "fp32_steps_per_s": round(fp32["steps_per_s"], 1),
-        "speedup": round(bf16["steps_per_s"] / fp32["steps_per_s"], 2),
-        "bf16_cpu_ms_per_step": round(bf16["cpu_ms"], 2),
-        "fp32_cpu_ms_per_step": round(fp32["cpu_ms"], 2),
-        "cpu_speedup": round(fp32["cpu_ms"] / bf16["cpu_ms"], 2),
+        **bf16_against_fp32(bf16_step, fp32_step, args.seconds),
     }
     if args.json:
         print(json.dumps(result))
