@@ -82,6 +82,11 @@ def _saved_policy(path: str, model_dir: str | None, domain: str, obs_dim: int, a
 
     from fbil.imitators import load_policy
 
+    if not Path(path).is_file():
+        raise FbilError(
+            f"unknown policy {path!r}: --policy takes random or a policy file of "
+            "`fbil imitate ... --out DIR`"
+        )
     model = None
     if model_dir is not None:
         from fbil.fb.model import FBModel
