@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
-from fbil.agents.td3 import _mlp
+from fbil.agents.td3 import _mlp, run_mlp
 from fbil.baselines.common import TrainedPolicy, demo_transitions, standardiser, trained_imitator
 from fbil.errors import FbilError
 from fbil.imitation.demos import Demos
@@ -59,17 +59,23 @@ def bc_loss(out: torch.Tensor, action: torch.Tensor, loss: str) -> torch.Tensor:
 
 
 def mean_action_policy(
-    method: str, net: torch.nn.Module, stats: torch.Tensor, act_dim: int, info: dict[str, float]
+    method: str,
+    net: torch.nn.Module,
+    stats: torch.Tensor,
+    act_dim: int,
+    info: dict[str, float],
+    precision: str = "fp32",
 ) -> TrainedPolicy:
-    """A policy that plays the tanh of the first `act_dim` outputs of `net` on states
-    standardised by `stats` (mean, std)."""
+    """A policy that plays the tanh of the first `act_dim` outputs of `net` (run as
+    `run_mlp` runs it) on states standardised by `stats` (mean, std)."""
     net.requires_grad_(False)
 
     def act(o: np.ndarray) -> np.ndarray:
-        out = net((torch.as_tensor(o) - stats[0]) / stats[1])
+        out = run_mlp(net, (torch.as_tensor(o) - stats[0]) / stats[1], precision)
         return torch.tanh(out[:, :act_dim]).numpy()
 
-    return TrainedPolicy(method, act, {"net": net.state_dict(), "obs_stats": stats}, info)
+    state = {"net": net.state_dict(), "obs_stats": stats}
+    return TrainedPolicy(method, act, state, info, precision)
 
 
 def train_bc(obs: torch.Tensor, action: torch.Tensor, cfg: BCConfig, seed: int) -> TrainedPolicy:

@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 import torch
 
-from fbil.agents.td3 import _mlp, run_mlp
+from fbil.agents.td3 import _mlp
 from fbil.checkpoint import load_state, save_state
 from fbil.errors import FbilError
 from fbil.imitation.demos import Demos
@@ -158,16 +158,12 @@ def load_trained_policy(path: str | Path) -> TrainedPolicy:
         net.load_state_dict(weights)
     except (KeyError, RuntimeError, ValueError) as exc:
         raise FbilError(f"{path}: the network does not match App. D's MLP ({exc})") from None
-    stats, act_dim = state["obs_stats"].float(), int(state["act_dim"])
+    from fbil.baselines.bc import mean_action_policy  # bc builds on this module
+
+    method, info = str(state.get("method", "?")), state.get("info", {})
     precision = str(state.get("precision", "fp32"))
-    net.requires_grad_(False)
-
-    def act(o: np.ndarray) -> np.ndarray:
-        out = run_mlp(net, (torch.as_tensor(o) - stats[0]) / stats[1], precision)
-        return torch.tanh(out[:, :act_dim]).numpy()
-
-    kept = {found[0]: state[found[0]], "obs_stats": stats}
-    return TrainedPolicy(str(state.get("method", "?")), act, kept, state.get("info", {}), precision)
+    stats = state["obs_stats"].float()
+    return mean_action_policy(method, net, stats, int(state["act_dim"]), info, precision)
 
 
 def trained_imitator(
