@@ -86,9 +86,12 @@ def test_dwbc_discriminator_separates_expert_pairs_and_weighs_them_up() -> None:
     written = 0.5 * -torch.log(d_e).mean() - torch.log(1 - d_o).mean()
     written = written + 0.5 * torch.log(1 - d_e).mean()
     torch.testing.assert_close(discriminator_loss(logit_e, logit_o, 0.5), written)
-    w_e, w_o = policy_weights(torch.tensor([0.05, 0.5]), torch.tensor([0.2, 0.99]), 7.5, 0.5)
-    torch.testing.assert_close(w_e, torch.tensor([7.5 - 0.5 / 0.09, 7.5 - 2.0]))
-    torch.testing.assert_close(w_o, torch.tensor([1 / 0.8, 1 / 0.1]))
+    w_e, w_o = policy_weights(
+        torch.tensor([0.05, 0.5]), torch.tensor([0.2, 0.49, 0.6, 0.99]), 10.0, 0.5
+    )
+    torch.testing.assert_close(w_e, torch.tensor([9.0 - 0.5 / 0.09, 9.0 - 2.0]))
+    # Dataset pairs the discriminator calls non-expert (d < 0.5) do not enter L_pi at all.
+    torch.testing.assert_close(w_o, torch.tensor([0.0, 0.0, 0.6 / 0.4, 0.9 / 0.1]))
     # Trained on demos and an unlabeled set of 1 expert-like pair in 8.
     torch.manual_seed(0)
     gen = torch.Generator().manual_seed(0)
@@ -109,9 +112,16 @@ def test_dwbc_discriminator_separates_expert_pairs_and_weighs_them_up() -> None:
         d_bad = torch.sigmoid(model.logits(bad, model.log_prob(bad)))
     auc = (d_good[:, None] > d_bad[None]).float().mean()
     assert auc > 0.85, auc
-    _, w_good = policy_weights(d_good, d_good, 7.5, 0.5)
-    _, w_bad = policy_weights(d_bad, d_bad, 7.5, 0.5)
+    _, w_good = policy_weights(d_good, d_good, 10.0, 0.5)
+    _, w_bad = policy_weights(d_bad, d_bad, 10.0, 0.5)
     assert w_good.mean() > 2 * w_bad.mean(), (w_good.mean(), w_bad.mean())
+    # The policy imitates the expert, not the unlabeled set's random actions: its mean
+    # action is as close to tanh(1.5 s) as BC's on the demos alone would be (uniform
+    # actions would sit ~0.6 away on average).
+    with torch.no_grad():
+        mean = torch.tanh(model.policy(good.obs)[:, :2])
+    err = (mean - good.action).abs().mean()
+    assert err < 0.15, err
 
 
 class Chain:
