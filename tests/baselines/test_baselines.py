@@ -201,3 +201,31 @@ def test_a_dataset_of_another_domain_is_refused(demos_dir: Path, fixture_data: P
     )
     lines = res.stderr.strip().splitlines()
     assert res.returncode == 2 and len(lines) == 1 and "not walker" in lines[0], res.stderr
+
+
+def test_demodice_learns_on_the_union_of_dataset_and_demos(
+    demos_dir: Path, fixture_data: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """DemoDICE's D holds the demonstrations too (the authors' code); SMODICE's, from
+    action-free demos, the dataset alone. Rows are drawn uniformly over D."""
+    from fbil.baselines import dice
+    from fbil.baselines.demodice import DUAL
+
+    seen: list[torch.Tensor] = []
+    update = dice.DiceLearner.update
+
+    def spy(self: dice.DiceLearner, batch: Transitions, starts: torch.Tensor) -> dict[str, float]:
+        seen.append(batch.expert)
+        return update(self, batch, starts)
+
+    monkeypatch.setattr(dice.DiceLearner, "update", spy)
+    demos, data = Demos.load(demos_dir / "square.npz"), load_dataset(fixture_data)
+    cfg = dice.smoke(DUAL)
+    dice.train_dice("demodice", "sa", demos, data, cfg, 10.0, 0, union=True)
+    share = float(torch.cat(seen).float().mean())
+    n_demo = len(demo_transitions(demos))
+    expected = n_demo / (n_demo + int(data.num_transitions))
+    assert abs(share - expected) < 0.1, (share, expected)
+    seen.clear()
+    dice.train_dice("smodice", "s", demos, data, cfg, 10.0, 0)
+    assert not bool(torch.cat(seen).any())

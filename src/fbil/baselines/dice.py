@@ -17,6 +17,10 @@ convex dual over a state function nu on the unsupervised dataset D, and weighted
    constraints (f(x) = x log x for kl, with sum d = 1); for kl and r = log(rho_E / rho_D)
    that is min_d KL(d || rho_E) + alpha KL(d || d_D). At the optimum, d = w d_D is an
    occupancy.
+   D is the union of the unsupervised dataset and the demonstrations for DemoDICE, as the
+   authors' code (geon-hyeong/imitation-dice: rows drawn uniformly from imperfect + expert
+   data, initial states from both); the action-free methods (SMODICE, LobsDICE) cannot
+   clone demo actions and use the dataset alone.
 3. Policy. The stationary-distribution ratios w = exp(y) / E_D[exp(y)] (kl, normalised in
    the minibatch) or w = max(0, y + 1) (chi2), held fixed, weight the Gaussian policy's BC:
    L(pi) = -E_D[w log pi(a|s)] (the policy of `bc.py`: tanh mean, state-dependent log-std;
@@ -32,6 +36,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from typing import Any
 
+import numpy as np
 import torch
 from torch.nn import functional as F
 
@@ -40,10 +45,11 @@ from fbil.baselines.bc import gaussian_log_prob, mean_action_policy
 from fbil.baselines.common import (
     TrainedPolicy,
     Transitions,
-    dataset_rows,
+    demo_transitions,
     paper_gamma,
     trained_imitator,
 )
+from fbil.baselines.offline_td3 import MixedSampler
 from fbil.baselines.oril import Discriminator, DiscriminatorConfig, train_discriminator
 from fbil.errors import FbilError
 from fbil.imitation.demos import Demos
@@ -159,37 +165,56 @@ class DiceLearner:
 
 
 def train_dice(
-    name: str, kind: str, demos: Demos, dataset: Any, cfg: DiceConfig, penalty: float, seed: int
+    name: str,
+    kind: str,
+    demos: Demos,
+    dataset: Any,
+    cfg: DiceConfig,
+    penalty: float,
+    seed: int,
+    union: bool = False,
 ) -> TrainedPolicy:
     """The discriminator on input `kind` ("sa", "s", "ss"; gradient penalty `penalty`), then
-    `cfg.dual.steps` joint nu and policy updates on minibatches of the dataset."""
+    `cfg.dual.steps` joint nu and policy updates on minibatches of the dataset, or of the
+    dataset and the demonstrations (`union`; they need actions)."""
     disc_cfg = replace(cfg.discriminator, gradient_penalty=penalty)
     disc = train_discriminator(kind, demos, dataset, disc_cfg, seed)
     torch.manual_seed(seed)
     gen = torch.Generator().manual_seed(seed + 1)
     learner = DiceLearner(disc, dataset, cfg.dual)
     starts = torch.from_numpy(dataset.observation[dataset.episode_start])
-    n_data, batch_size = int(dataset.num_transitions), cfg.dual.batch_size
+    expert = None
+    if union:
+        expert = demo_transitions(demos)
+        first = [np.asarray(t.observation[:1], np.float32) for t in demos.trajectories]
+        starts = torch.cat([starts, torch.from_numpy(np.concatenate(first))])
+    # expert_ratio None: rows uniform over the union (or the dataset when expert is None).
+    sample = MixedSampler(dataset, expert, cfg.dual.batch_size, None, gen)
     last: dict[str, float] = {}
     for _ in range(cfg.dual.steps):
-        rows = torch.randint(0, n_data, (batch_size,), generator=gen)
-        s0 = starts[torch.randint(0, len(starts), (batch_size,), generator=gen)]
-        last = learner.update(dataset_rows(dataset, rows), s0)
+        s0 = starts[torch.randint(0, len(starts), (cfg.dual.batch_size,), generator=gen)]
+        last = learner.update(sample(), s0)
     info = {k: round(v, 5) for k, v in last.items()}
     return mean_action_policy(name, learner.policy, learner.stats, learner.act_dim, info)
 
 
 def dice_imitator(
-    name: str, kind: str, principle: str, dual: DualConfig, penalty: dict[str, float]
+    name: str,
+    kind: str,
+    principle: str,
+    dual: DualConfig,
+    penalty: dict[str, float],
+    union: bool = False,
 ) -> Imitator:
     """A DICE method: its discriminator input `kind`, its dual's settings (the `cpu` budget;
-    `smoke` shrinks them) and its discriminator's gradient penalty per domain (Table 2)."""
+    `smoke` shrinks them), its discriminator's gradient penalty per domain (Table 2) and
+    whether its D holds the demonstrations too (`union`)."""
     budgets = Budgets(cpu=DiceConfig(dual), smoke=smoke(dual))
 
     def fit(demos: Demos, context: FitContext) -> TrainedPolicy:
         data, cfg = context.dataset, budgets[context.budget]
         weight = penalty.get(data.domain, 10.0)
-        return train_dice(name, kind, demos, data, cfg, weight, context.seed)
+        return train_dice(name, kind, demos, data, cfg, weight, context.seed, union)
 
     return trained_imitator(
         name, principle, fit, budgets, needs_actions=kind == "sa", needs_dataset=True
