@@ -86,6 +86,16 @@ def test_dwbc_discriminator_separates_expert_pairs_and_weighs_them_up() -> None:
     written = 0.5 * -torch.log(d_e).mean() - torch.log(1 - d_o).mean()
     written = written + 0.5 * torch.log(1 - d_e).mean()
     torch.testing.assert_close(discriminator_loss(logit_e, logit_o, 0.5), written)
+    # d is clipped to [0.1, 0.9] as the authors' discriminator outputs it: rows past the
+    # clip (an expert row at d = 0.95, a dataset row at d = 0.05) give no gradient.
+    far = (
+        torch.tensor([3.0, 0.3], requires_grad=True),
+        torch.tensor([-3.0, 0.5], requires_grad=True),
+    )
+    discriminator_loss(*far, 0.5).backward()
+    assert far[0].grad is not None and far[1].grad is not None
+    assert float(far[0].grad[0]) == 0.0 and float(far[1].grad[0]) == 0.0
+    assert float(far[0].grad[1]) < 0.0 < float(far[1].grad[1])
     w_e, w_o = policy_weights(
         torch.tensor([0.05, 0.5]), torch.tensor([0.2, 0.49, 0.6, 0.99]), 10.0, 0.5
     )

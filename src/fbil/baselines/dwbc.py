@@ -4,10 +4,10 @@ policy being learnt.
 
 A discriminator d(s, a, log pi(a|s)) = sigmoid(l), its third input the per-dimension
 log-likelihoods of the current policy (no gradient to pi), clipped to [-20, 10] and scaled to
-[0, 1], is trained with DWBC's positive-unlabeled loss
+[0, 1], is trained with DWBC's positive-unlabeled loss on d clipped to [0.1, 0.9] (the
+authors' discriminator clips its output, so rows past the clip give no gradient)
 
-  L_d = eta E_E[-log d] + E_O[-log(1 - d)] - eta E_E[-log(1 - d)]
-      = -eta E_E[l] + E_O[softplus(l)],
+  L_d = eta E_E[-log d] + E_O[-log(1 - d)] - eta E_E[-log(1 - d)],
 
 and, in the same step, the Gaussian policy of `bc.py` (tanh mean, state-dependent log-std)
 with DWBC's weighted BC objective, d clipped to [0.1, 0.9] and held fixed:
@@ -17,10 +17,11 @@ with DWBC's weighted BC objective, d clipped to [0.1, 0.9] and held fixed:
 
 As in the authors' code (ryanxhr/DWBC, `algos/DWBC.py`), a dataset pair counts only when the
 discriminator finds it expert-like (d >= 0.5), with weight d / (1 - d) in [1, 9]; every other
-dataset pair has weight 0. (Session 13's version gave every dataset pair 1 / (1 - d) >= 1.1,
-which pulled the policy toward the RND data's random actions: 8.5 % on the maze against
-BC's 57.7 %.) alpha = 10 as the authors' scripts, eta = 0.5. The policy plays its mean
-action."""
+dataset pair has weight 0. Session 13's version gave every dataset pair 1 / (1 - d) >= 1.1
+and trained an unclipped discriminator, whose PU term -eta E_E[l] grows without bound: 8.5 %
+on the maze against BC's 57.7 %; see docs/baselines.md (session 14) for the measurements
+that separated the two causes. alpha = 10 as the authors' scripts, eta = 0.5. The policy
+plays its mean action."""
 
 from __future__ import annotations
 
@@ -28,7 +29,6 @@ from dataclasses import dataclass
 from typing import Any
 
 import torch
-from torch.nn import functional as F
 
 from fbil.agents.td3 import _mlp
 from fbil.baselines.bc import gaussian_log_prob, mean_action_policy
@@ -65,8 +65,13 @@ BUDGETS = Budgets(
 
 
 def discriminator_loss(logit_e: torch.Tensor, logit_o: torch.Tensor, eta: float) -> torch.Tensor:
-    """L_d of the module's docstring, from the logits l of expert and dataset rows."""
-    return -eta * logit_e.mean() + F.softplus(logit_o).mean()
+    """L_d of the module's docstring, from the logits l of expert and dataset rows, with
+    d = sigmoid(l) clipped to `D_CLIP` as the authors' discriminator outputs it: a row
+    whose d is past the clip gives no gradient, so the discriminator stops pushing expert
+    rows beyond 0.9 and dataset rows below 0.1."""
+    d_e, d_o = torch.sigmoid(logit_e).clamp(*D_CLIP), torch.sigmoid(logit_o).clamp(*D_CLIP)
+    expert = -torch.log(d_e) + torch.log(1 - d_e)
+    return eta * expert.mean() - torch.log(1 - d_o).mean()
 
 
 def policy_weights(
