@@ -8,21 +8,24 @@ convex dual over a state function nu on the unsupervised dataset D, and weighted
 2. Dual. With e(s, a, s') = r + gamma * discount * nu(s') - nu(s) and y = e / (1 + alpha),
    nu minimises over D's transitions and initial states s0 (the dataset's episode starts)
 
-     kl:   L(nu) = (1 - gamma) E_s0[nu(s0)] + (1 + alpha) log E_D[exp(y)]
-     chi2: L(nu) = (1 - gamma) E_s0[nu(s0)] + (1 + alpha) E_D[f*_+(y)],
+     kl:        L(nu) = (1 - gamma) E_s0[nu(s0)] + (1 + alpha) log E_D[exp(y)]
+     chi2:      L(nu) = (1 - gamma) E_s0[nu(s0)] + (1 + alpha) E_D[y^2 / 2 + y]
+     chi2_plus: L(nu) = (1 - gamma) E_s0[nu(s0)] + (1 + alpha) E_D[f*_+(y)],
 
-   f*_+ the conjugate of f(x) = (x - 1)^2 / 2 restricted to x >= 0:
-   f*_+(y) = w y - f(w), w = max(0, y + 1) (= y^2/2 + y where y >= -1). Both are the dual
-   of max_d E_d[r] - (1 + alpha) D_f(d || d_D) over d >= 0 satisfying the Bellman flow
+   y^2 / 2 + y the conjugate of f(x) = (x - 1)^2 / 2 over all reals (what SMODICE's code,
+   JasonMa2016/SMODICE, minimises; rows with y < -1 keep pulling y up to -1), f*_+ its
+   conjugate restricted to x >= 0: f*_+(y) = w y - f(w), w = max(0, y + 1) (-1/2 and no
+   gradient below y = -1). kl and chi2_plus are exactly the dual of
+   max_d E_d[r] - (1 + alpha) D_f(d || d_D) over d >= 0 satisfying the Bellman flow
    constraints (f(x) = x log x for kl, with sum d = 1); for kl and r = log(rho_E / rho_D)
-   that is min_d KL(d || rho_E) + alpha KL(d || d_D). At the optimum, d = w d_D is an
-   occupancy.
+   that is min_d KL(d || rho_E) + alpha KL(d || d_D). At their optimum, d = w d_D is an
+   occupancy; chi2's optimum drops d >= 0, and its weights are clipped at 0 as the code's.
    D is the union of the unsupervised dataset and the demonstrations for DemoDICE, as the
    authors' code (geon-hyeong/imitation-dice: rows drawn uniformly from imperfect + expert
    data, initial states from both); the action-free methods (SMODICE, LobsDICE) cannot
    clone demo actions and use the dataset alone.
 3. Policy. The stationary-distribution ratios w = exp(y) / E_D[exp(y)] (kl, normalised in
-   the minibatch) or w = max(0, y + 1) (chi2), held fixed, weight the Gaussian policy's BC:
+   the minibatch) or w = max(0, y + 1) (both chi2), held fixed, weight the Gaussian policy's BC:
    L(pi) = -E_D[w log pi(a|s)] (the policy of `bc.py`: tanh mean, state-dependent log-std;
    it plays its mean). nu and pi take one step each per minibatch.
 
@@ -56,7 +59,7 @@ from fbil.imitation.demos import Demos
 from fbil.imitators.base import FitContext, Imitator
 from fbil.imitators.budgets import Budgets
 
-DIVERGENCES = ("kl", "chi2")
+DIVERGENCES = ("kl", "chi2", "chi2_plus")
 
 
 @dataclass(frozen=True)
@@ -70,7 +73,9 @@ class DualConfig:
 
     def __post_init__(self) -> None:
         if self.divergence not in DIVERGENCES:
-            raise FbilError(f"unknown divergence {self.divergence!r}; valid: kl, chi2")
+            raise FbilError(
+                f"unknown divergence {self.divergence!r}; valid: {', '.join(DIVERGENCES)}"
+            )
 
 
 @dataclass(frozen=True)
@@ -87,8 +92,11 @@ def smoke(dual: DualConfig) -> DiceConfig:
     )
 
 
-def chi2_conjugate(y: torch.Tensor) -> torch.Tensor:
-    """f*_+(y) for f(x) = (x - 1)^2 / 2 on x >= 0."""
+def chi2_conjugate(y: torch.Tensor, restricted: bool = False) -> torch.Tensor:
+    """f*(y) = y^2 / 2 + y for f(x) = (x - 1)^2 / 2 on all reals (SMODICE's code), or
+    f*_+(y) with x restricted to x >= 0 (`restricted`: -1/2 and no gradient below -1)."""
+    if not restricted:
+        return 0.5 * y**2 + y
     w = F.relu(y + 1)
     return w * y - 0.5 * (w - 1) ** 2
 
@@ -106,7 +114,7 @@ def dual_loss(
     if divergence == "kl":
         spread = torch.logsumexp(y, 0) - math.log(len(y))
     else:
-        spread = chi2_conjugate(y).mean()
+        spread = chi2_conjugate(y, restricted=divergence == "chi2_plus").mean()
     return (1 - gamma) * nu0.mean() + (1 + alpha) * spread
 
 

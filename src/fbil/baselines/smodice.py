@@ -3,10 +3,12 @@ with a state discriminator and the chi^2 divergence (Table 2), from action-free 
 
 Reward R(s') = log D(s') - log(1 - D(s')) on the transition's next state (the paper's rewards
 are r(s_{t+1})); nu minimises
-  (1 - gamma) E_s0[nu(s0)] + E_D[f*_+(R + gamma nu(s') - nu(s))],
-f*_+ the conjugate of f(x) = (x - 1)^2 / 2 restricted to x >= 0 (SMODICE's chi^2), the dual
-of max_d E_d[R] - D_chi2(d || d_D); the policy maximises E_D[w log pi(a|s)] with
-w = max(0, R + gamma nu(s') - nu(s) + 1). Gradient penalty: Table 2's SMODICE row."""
+  (1 - gamma) E_s0[nu(s0)] + E_D[f*(R + gamma nu(s') - nu(s))],
+f*(y) = y^2 / 2 + y the conjugate of f(x) = (x - 1)^2 / 2 (the chi^2 of the authors' code,
+JasonMa2016/SMODICE, unclipped in the loss; until session 15 fbil used the conjugate
+restricted to x >= 0, `chi2_plus`, which gives rows with y < -1 no gradient); the policy
+maximises E_D[w log pi(a|s)] with w = max(0, R + gamma nu(s') - nu(s) + 1). Gradient
+penalty: Table 2's SMODICE row."""
 
 from __future__ import annotations
 
