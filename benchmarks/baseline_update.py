@@ -2,8 +2,9 @@
 the default path (bf16 autocast on the hidden layers) against plain fp32, same run.
 
 Times one update of the offline TD3 of td3il / oril / otr (`OfflineTD3Config`, batch 512,
-256 units) and of the SAC of sqil / iq-learn (`SACConfig`) on random batches of a domain's
-sizes, in alternating slices of ~1 s; `cpu_speedup` is the ratio of CPU time per update
+256 units), of the SAC of sqil / iq-learn (`SACConfig`) and one step of the discriminator
+of oril and the DICE methods (`DiscriminatorConfig`: BCE on 512 expert and 512 dataset rows
+plus the gradient penalty, on (s, a)) on random batches of a domain's sizes, in alternating slices of ~1 s; `cpu_speedup` is the ratio of CPU time per update
 (robust to other processes' load), `speedup` that of wall-clock rates.
 
     python benchmarks/baseline_update.py [--domain point_mass_maze] [--seconds 10] [--json]
@@ -24,6 +25,7 @@ from td3_update import bf16_against_fp32
 from fbil.agents.td3 import TD3
 from fbil.baselines.common import Transitions
 from fbil.baselines.offline_td3 import OfflineTD3Config
+from fbil.baselines.oril import Discriminator, DiscriminatorConfig, discriminator_loss
 from fbil.baselines.sac import SAC, SACConfig
 from fbil.envs import get_domain
 
@@ -82,6 +84,28 @@ def sac_step(domain: str, precision: str) -> Callable[[], Any]:
     return step
 
 
+def discriminator_step(domain: str, precision: str) -> Callable[[], Any]:
+    spec = get_domain(domain)
+    cfg = DiscriminatorConfig(precision=precision)  # type: ignore[arg-type]
+    stats = torch.stack([torch.zeros(spec.obs_dim), torch.ones(spec.obs_dim)])
+    disc = Discriminator("sa", stats, spec.act_dim, cfg.hidden, cfg.precision)
+    opt = torch.optim.Adam(disc.net.parameters(), lr=cfg.lr)
+    gen = torch.Generator().manual_seed(0)
+
+    def step() -> None:
+        expert = disc.features(_batch(spec.obs_dim, spec.act_dim, cfg.batch_size, gen))
+        data = disc.features(_batch(spec.obs_dim, spec.act_dim, cfg.batch_size, gen))
+        loss = discriminator_loss(disc, expert, data, 10.0, gen)
+        opt.zero_grad(set_to_none=True)
+        loss.backward()
+        opt.step()
+
+    return step
+
+
+LEARNERS = (("offline_td3", td3_step), ("sac", sac_step), ("discriminator", discriminator_step))
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--threads", type=int, default=1, help="1, as benchmark workers train")
@@ -91,7 +115,7 @@ def main() -> None:
     args = parser.parse_args()
     torch.set_num_threads(args.threads)
     result: dict[str, Any] = {"threads": torch.get_num_threads(), "domain": args.domain}
-    for name, make in (("offline_td3", td3_step), ("sac", sac_step)):
+    for name, make in LEARNERS:
         steps = {p: make(args.domain, p) for p in ("bf16", "fp32")}
         for step in steps.values():
             for _ in range(3):  # allocations, first calls
@@ -100,7 +124,7 @@ def main() -> None:
     if args.json:
         print(json.dumps(result))
         return
-    for name in ("offline_td3", "sac"):
+    for name, _ in LEARNERS:
         r = result[name]
         print(
             f"{name} ({args.domain}, {result['threads']} thread(s)): bf16 "

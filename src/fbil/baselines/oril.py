@@ -11,12 +11,12 @@ demonstrations and the dataset; the action-free variants on the dataset alone.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Literal
 
 import torch
 from torch.nn import functional as F
 
-from fbil.agents.td3 import _mlp
+from fbil.agents.td3 import _mlp, run_mlp
 from fbil.baselines.common import (
     PAPER_GRADIENT_PENALTY,
     TrainedPolicy,
@@ -41,6 +41,9 @@ class DiscriminatorConfig:
     batch_size: int = 512  # expert rows and as many dataset rows
     lr: float = 1e-4
     gradient_penalty: float | None = None  # None: Table 2's weight for the domain
+    # bf16 autocast on the hidden layers (last layer fp32), as the RL learners: 1.8x less
+    # CPU per step at the maze size (session 15, benchmarks/baseline_update.py).
+    precision: Literal["fp32", "bf16"] = "bf16"
 
 
 @dataclass(frozen=True)
@@ -62,8 +65,15 @@ class Discriminator:
     """D(x) = sigmoid(net(x)) on the variant's input x, states standardised by the
     dataset's statistics."""
 
-    def __init__(self, kind: str, obs_stats: torch.Tensor, act_dim: int, hidden: int) -> None:
-        self.kind, self.stats = kind, obs_stats
+    def __init__(
+        self,
+        kind: str,
+        obs_stats: torch.Tensor,
+        act_dim: int,
+        hidden: int,
+        precision: str = "fp32",
+    ) -> None:
+        self.kind, self.stats, self.precision = kind, obs_stats, precision
         obs_dim = obs_stats.shape[1]
         width = {"sa": obs_dim + act_dim, "s": obs_dim, "ss": 2 * obs_dim}[kind]
         self.net = _mlp(width, hidden, 1)
@@ -80,7 +90,7 @@ class Discriminator:
         return torch.cat([norm(batch.obs), norm(batch.next_obs)], -1)
 
     def logits(self, x: torch.Tensor) -> torch.Tensor:
-        return self.net(x).squeeze(-1)
+        return run_mlp(self.net, x, self.precision).squeeze(-1)
 
     def reward(self, batch: Transitions) -> torch.Tensor:
         """r = log(D + 1), in (0, log 2)."""
@@ -96,9 +106,10 @@ def discriminator_loss(
 ) -> torch.Tensor:
     """BCE (expert 1, dataset 0) + penalty * (|grad_x logit(x)| - 1)^2 at random points
     between paired expert and dataset inputs (the WGAN-GP penalty of GAIL-type methods)."""
+    logits = disc.logits(torch.cat([expert, data]))  # one pass for both sets
     bce = F.binary_cross_entropy_with_logits(
-        disc.logits(expert), torch.ones(len(expert))
-    ) + F.binary_cross_entropy_with_logits(disc.logits(data), torch.zeros(len(data)))
+        logits[: len(expert)], torch.ones(len(expert))
+    ) + F.binary_cross_entropy_with_logits(logits[len(expert) :], torch.zeros(len(data)))
     alpha = torch.rand(len(expert), 1, generator=gen)
     mixed = (alpha * expert + (1 - alpha) * data).requires_grad_(True)
     (grad,) = torch.autograd.grad(disc.logits(mixed).sum(), mixed, create_graph=True)
@@ -112,7 +123,7 @@ def train_discriminator(
     torch.manual_seed(seed)
     gen = torch.Generator().manual_seed(seed)
     stats = standardiser(dataset.observation, 1e-3)
-    disc = Discriminator(kind, stats, dataset.action.shape[1], cfg.hidden)
+    disc = Discriminator(kind, stats, dataset.action.shape[1], cfg.hidden, cfg.precision)
     penalty = cfg.gradient_penalty
     if penalty is None:
         penalty = PAPER_GRADIENT_PENALTY.get(dataset.domain, 10.0)
