@@ -4,7 +4,8 @@ the default path (bf16 autocast on the hidden layers) against plain fp32, same r
 Times one update of the offline TD3 of td3il / oril / otr (`OfflineTD3Config`, batch 512,
 256 units), of the SAC of sqil / iq-learn (`SACConfig`) and one step of the discriminator
 of oril and the DICE methods (`DiscriminatorConfig`: BCE on 512 expert and 512 dataset rows
-plus the gradient penalty, on (s, a)) on random batches of a domain's sizes, in alternating slices of ~1 s; `cpu_speedup` is the ratio of CPU time per update
+plus the gradient penalty, on (s, a)) and one joint nu and policy step of the DICE methods
+(`DualConfig`, KL) on random batches of a domain's sizes, in alternating slices of ~1 s; `cpu_speedup` is the ratio of CPU time per update
 (robust to other processes' load), `speedup` that of wall-clock rates.
 
     python benchmarks/baseline_update.py [--domain point_mass_maze] [--seconds 10] [--json]
@@ -24,6 +25,7 @@ from td3_update import bf16_against_fp32
 
 from fbil.agents.td3 import TD3
 from fbil.baselines.common import Transitions
+from fbil.baselines.dice import DiceLearner, DualConfig
 from fbil.baselines.offline_td3 import OfflineTD3Config
 from fbil.baselines.oril import Discriminator, DiscriminatorConfig, discriminator_loss
 from fbil.baselines.sac import SAC, SACConfig
@@ -103,7 +105,32 @@ def discriminator_step(domain: str, precision: str) -> Callable[[], Any]:
     return step
 
 
-LEARNERS = (("offline_td3", td3_step), ("sac", sac_step), ("discriminator", discriminator_step))
+def dice_step(domain: str, precision: str) -> Callable[[], Any]:
+    spec = get_domain(domain)
+    cfg = DualConfig(precision=precision)  # type: ignore[arg-type]
+    rng = np.random.default_rng(0)
+    data = _Data(
+        domain,
+        rng.standard_normal((1000, spec.obs_dim)).astype(np.float32),
+        rng.uniform(-1, 1, (1000, spec.act_dim)).astype(np.float32),
+    )
+    stats = torch.stack([torch.zeros(spec.obs_dim), torch.ones(spec.obs_dim)])
+    learner = DiceLearner(Discriminator("sa", stats, spec.act_dim, 256, "bf16"), data, cfg)
+    gen = torch.Generator().manual_seed(0)
+
+    def step() -> None:
+        b = _batch(spec.obs_dim, spec.act_dim, cfg.batch_size, gen)
+        learner.update(b, torch.randn(cfg.batch_size, spec.obs_dim, generator=gen))
+
+    return step
+
+
+LEARNERS = (
+    ("offline_td3", td3_step),
+    ("sac", sac_step),
+    ("discriminator", discriminator_step),
+    ("dice", dice_step),
+)
 
 
 def main() -> None:

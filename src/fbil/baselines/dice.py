@@ -37,13 +37,13 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 import torch
 from torch.nn import functional as F
 
-from fbil.agents.td3 import _mlp
+from fbil.agents.td3 import _mlp, run_mlp
 from fbil.baselines.bc import gaussian_log_prob, mean_action_policy
 from fbil.baselines.common import (
     TrainedPolicy,
@@ -70,6 +70,9 @@ class DualConfig:
     hidden: int = 256  # paper: 1024
     batch_size: int = 512
     lr: float = 1e-4
+    # bf16 autocast on nu's and the policy's hidden layers (last layers fp32); fbil's
+    # demodice grid of session 15 ran the fp32 path.
+    precision: Literal["fp32", "bf16"] = "bf16"
 
     def __post_init__(self) -> None:
         if self.divergence not in DIVERGENCES:
@@ -132,9 +135,11 @@ def advantage(
     reward: torch.Tensor,
     gamma: float,
 ) -> torch.Tensor:
-    """e = r + gamma * discount * nu(s') - nu(s); nu maps (B, d) states to (B, 1)."""
-    nu_s, nu_next = nu(batch.obs).squeeze(-1), nu(batch.next_obs).squeeze(-1)
-    return reward + gamma * batch.discount * nu_next - nu_s
+    """e = r + gamma * discount * nu(s') - nu(s); nu maps (B, d) states to (B, 1), and
+    runs once on s and s' together."""
+    n = len(batch.obs)
+    both = nu(torch.cat([batch.obs, batch.next_obs])).squeeze(-1)
+    return reward + gamma * batch.discount * both[n:] - both[:n]
 
 
 class DiceLearner:
@@ -150,7 +155,7 @@ class DiceLearner:
         self.policy_opt = torch.optim.Adam(self.policy.parameters(), lr=cfg.lr)
 
     def nu(self, obs: torch.Tensor) -> torch.Tensor:
-        return self.nu_net((obs - self.stats[0]) / self.stats[1])
+        return run_mlp(self.nu_net, (obs - self.stats[0]) / self.stats[1], self.cfg.precision)
 
     def update(self, batch: Transitions, starts: torch.Tensor) -> dict[str, float]:
         """One step on L(nu), then one on the weighted BC loss L(pi)."""
@@ -164,7 +169,8 @@ class DiceLearner:
         loss.backward()
         self.nu_opt.step()
         w = dice_weights(e, cfg.alpha, cfg.divergence)
-        out = self.policy((batch.obs - self.stats[0]) / self.stats[1])
+        x = (batch.obs - self.stats[0]) / self.stats[1]
+        out = run_mlp(self.policy, x, cfg.precision)
         p_loss = -(w * gaussian_log_prob(out, batch.action).sum(-1)).mean()
         self.policy_opt.zero_grad(set_to_none=True)
         p_loss.backward()
@@ -203,7 +209,9 @@ def train_dice(
         s0 = starts[torch.randint(0, len(starts), (cfg.dual.batch_size,), generator=gen)]
         last = learner.update(sample(), s0)
     info = {k: round(v, 5) for k, v in last.items()}
-    return mean_action_policy(name, learner.policy, learner.stats, learner.act_dim, info)
+    return mean_action_policy(
+        name, learner.policy, learner.stats, learner.act_dim, info, cfg.dual.precision
+    )
 
 
 def dice_imitator(
