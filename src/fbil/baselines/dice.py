@@ -70,8 +70,8 @@ class DualConfig:
     hidden: int = 256  # paper: 1024
     batch_size: int = 512
     lr: float = 1e-4
-    # bf16 autocast on nu's and the policy's hidden layers (last layers fp32); fbil's
-    # demodice grid of session 15 ran the fp32 path.
+    # bf16 autocast on nu's and the policy's hidden layers (last layers fp32): 1.86x less
+    # CPU per step at the maze size (benchmarks/baseline_update.py).
     precision: Literal["fp32", "bf16"] = "bf16"
 
     def __post_init__(self) -> None:
