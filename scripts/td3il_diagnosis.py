@@ -1,0 +1,77 @@
+"""TD3IL on one maze task with one thing changed at a time, to see what bounds it: the share
+of expert rows in each minibatch (`--ratio`; the paper's 0.002), the reward (`--reward
+true`: no demo, the dataset relabeled with the task's true reward, i.e. the same offline
+TD3 as an oracle), the data (`--max-episodes`: the first N episodes of the dataset) and the
+number of gradient steps. Everything else is td3il's `cpu` budget; the demo is draw 0 of
+K = 1, as `fbil benchmark` draws it. One thread; prints one JSON line.
+
+Usage: python scripts/td3il_diagnosis.py TASK [--ratio R] [--reward {01,true}] [--steps N]
+       [--max-episodes N] [--episodes 20] [--data DIR] [--demos DIR]
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import time
+
+import numpy as np
+import torch
+
+from fbil.baselines import td3il
+from fbil.baselines.common import TrainedPolicy, Transitions, demo_transitions
+from fbil.baselines.offline_td3 import agent_state, train_offline_td3
+from fbil.data import load_dataset
+from fbil.envs.rollout import rollout
+from fbil.evaluation.evaluate import demo_draw
+from fbil.imitation import Demos
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("task")
+    p.add_argument("--ratio", type=float, default=td3il.BUDGETS["cpu"].expert_ratio)
+    p.add_argument("--reward", choices=["01", "true"], default="01")
+    p.add_argument("--steps", type=int, default=td3il.BUDGETS["cpu"].td3.steps)
+    p.add_argument("--max-episodes", type=int, default=None)
+    p.add_argument("--episodes", type=int, default=20)
+    p.add_argument("--data", default="datasets/point_mass_maze/rnd_uniform_1000_x4")
+    p.add_argument("--demos", default="artifacts/demos/point_mass_maze")
+    args = p.parse_args()
+    torch.set_num_threads(1)
+    data = load_dataset(args.data, max_episodes=args.max_episodes)
+    cfg = dataclasses.replace(td3il.BUDGETS["cpu"].td3, steps=args.steps)
+    expert: Transitions | None = None
+    if args.reward == "01":
+        expert = demo_transitions(demo_draw(Demos.load(f"{args.demos}/{args.task}.npz"), 1, 0))
+        label = td3il.labels
+    else:
+        true = torch.from_numpy(data.reward(args.task))
+
+        def label(batch: Transitions) -> torch.Tensor:
+            assert batch.index is not None
+            return true[batch.index]
+
+    started = time.time()
+    agent, info = train_offline_td3(data, label, cfg, 0, expert, args.ratio if expert else None)
+    seconds = time.time() - started
+    policy = TrainedPolicy("td3il", agent.act, agent_state(agent), info, agent.cfg.precision)
+    returns = rollout("point_mass_maze", args.task, policy, list(range(args.episodes)))
+    ret = returns.reward.sum(-1)
+    out = {
+        "task": args.task,
+        "reward": args.reward,
+        "ratio": args.ratio if expert else None,
+        "steps": args.steps,
+        "episodes_of_data": int(data.num_episodes),
+        "return_mean": round(float(np.mean(ret)), 1),
+        "return_std": round(float(np.std(ret)), 1),
+        "train_seconds": round(seconds, 1),
+        "info": info,
+    }
+    print(json.dumps(out), flush=True)
+
+
+if __name__ == "__main__":
+    main()
