@@ -297,3 +297,5 @@ def test_dice_configs_refuse_unknown_fields_and_divergences() -> None:
         config_from_dict(DualConfig, {"divergnce": "kl"})
     with pytest.raises(FbilError, match="unknown divergence 'js'"):
         DualConfig(divergence="js")
+    with pytest.raises(FbilError, match="unknown initial_states 'uniform'; valid: dataset, demos"):
+        DualConfig(initial_states="uniform")

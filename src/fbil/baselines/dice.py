@@ -6,7 +6,8 @@ convex dual over a state function nu on the unsupervised dataset D, and weighted
    r(x) = log D(x) - log(1 - D(x)), the logit: at the optimum log(rho_E(x) / rho_D(x))
    (App. B). x = (s, a) for DemoDICE, s' for SMODICE, (s, s') for LobsDICE.
 2. Dual. With e(s, a, s') = r + gamma * discount * nu(s') - nu(s) and y = e / (1 + alpha),
-   nu minimises over D's transitions and initial states s0 (the dataset's episode starts)
+   nu minimises over D's transitions and initial states s0 (the dataset's episode starts;
+   `initial_states="demos"`: the demos' first states alone)
 
      kl:        L(nu) = (1 - gamma) E_s0[nu(s0)] + (1 + alpha) log E_D[exp(y)]
      chi2:      L(nu) = (1 - gamma) E_s0[nu(s0)] + (1 + alpha) E_D[y^2 / 2 + y]
@@ -60,6 +61,7 @@ from fbil.imitators.base import FitContext, Imitator
 from fbil.imitators.budgets import Budgets
 
 DIVERGENCES = ("kl", "chi2", "chi2_plus")
+INITIAL_STATES = ("dataset", "demos")
 
 
 @dataclass(frozen=True)
@@ -73,11 +75,19 @@ class DualConfig:
     # bf16 autocast on nu's and the policy's hidden layers (last layers fp32): 1.86x less
     # CPU per step at the maze size (benchmarks/baseline_update.py).
     precision: Literal["fp32", "bf16"] = "bf16"
+    # Where the (1 - gamma) E[nu(s0)] term draws s0: the dataset's episode starts (and the
+    # demos' first states for a union), or the demos' first states alone (`demos`).
+    initial_states: str = "dataset"
 
     def __post_init__(self) -> None:
         if self.divergence not in DIVERGENCES:
             raise FbilError(
                 f"unknown divergence {self.divergence!r}; valid: {', '.join(DIVERGENCES)}"
+            )
+        if self.initial_states not in INITIAL_STATES:
+            raise FbilError(
+                f"unknown initial_states {self.initial_states!r}; valid: "
+                f"{', '.join(INITIAL_STATES)}"
             )
 
 
@@ -197,11 +207,14 @@ def train_dice(
     gen = torch.Generator().manual_seed(seed + 1)
     learner = DiceLearner(disc, dataset, cfg.dual)
     starts = torch.from_numpy(dataset.observation[dataset.episode_start])
+    first = [np.asarray(t.observation[:1], np.float32) for t in demos.trajectories]
+    demo_starts = torch.from_numpy(np.concatenate(first))
     expert = None
     if union:
         expert = demo_transitions(demos)
-        first = [np.asarray(t.observation[:1], np.float32) for t in demos.trajectories]
-        starts = torch.cat([starts, torch.from_numpy(np.concatenate(first))])
+        starts = torch.cat([starts, demo_starts])
+    if cfg.dual.initial_states == "demos":
+        starts = demo_starts
     # expert_ratio None: rows uniform over the union (or the dataset when expert is None).
     sample = MixedSampler(dataset, expert, cfg.dual.batch_size, None, gen)
     last: dict[str, float] = {}
