@@ -5,8 +5,9 @@ Times one update of the offline TD3 of td3il / oril / otr (`OfflineTD3Config`, b
 256 units), of the SAC of sqil / iq-learn (`SACConfig`) and one step of the discriminator
 of oril and the DICE methods (`DiscriminatorConfig`: BCE on 512 expert and 512 dataset rows
 plus the gradient penalty, on (s, a)) and one joint nu and policy step of the DICE methods
-(`DualConfig`, KL) on random batches of a domain's sizes, in alternating slices of ~1 s; `cpu_speedup` is the ratio of CPU time per update
-(robust to other processes' load), `speedup` that of wall-clock rates.
+(`DualConfig`, KL) on random batches of a domain's sizes, in alternating slices of ~1 s;
+`cpu_speedup` is the ratio of CPU time per update (robust to other processes' load),
+`speedup` that of wall-clock rates.
 
     python benchmarks/baseline_update.py [--domain point_mass_maze] [--seconds 10] [--json]
 """

@@ -5,8 +5,9 @@ Reward r(s, a) = log D(s, a) - log(1 - D(s, a)); nu minimises
   (1 - gamma) E_s0[nu(s0)] + (1 + alpha) log E_D[exp((r + gamma nu(s') - nu(s)) / (1 + alpha))],
 the dual of min_d KL(d || d_E) + alpha KL(d || d_D) over state-action occupancies d, with
 alpha = 0 as the authors' code (geon-hyeong/imitation-dice, `lfd_default_config.py`; the
-paper gives none; fbil used 0.05 until session 15); the policy maximises E_D[w log pi(a|s)], w = d / d_D. Gradient
-penalty of the discriminator: Table 2's DEMODICE row. D is the union of the dataset and
+paper gives none; fbil used 0.05 until session 15); the policy maximises
+E_D[w log pi(a|s)], w = d / d_D. Gradient penalty of the discriminator: Table 2's DEMODICE
+row. D is the union of the dataset and
 the demonstrations, as the authors' code."""
 
 from __future__ import annotations
