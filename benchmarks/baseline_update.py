@@ -42,6 +42,16 @@ class _Data:
     action: np.ndarray
 
 
+def _fake_data(domain: str) -> _Data:
+    """1 000 random states and actions of the domain's sizes."""
+    spec, rng = get_domain(domain), np.random.default_rng(0)
+    return _Data(
+        domain,
+        rng.standard_normal((1000, spec.obs_dim)).astype(np.float32),
+        rng.uniform(-1, 1, (1000, spec.act_dim)).astype(np.float32),
+    )
+
+
 def _batch(obs: int, act: int, n: int, gen: torch.Generator) -> Transitions:
     return Transitions(
         torch.randn(n, obs, generator=gen),
@@ -71,12 +81,7 @@ def td3_step(domain: str, precision: str) -> Callable[[], Any]:
 def sac_step(domain: str, precision: str) -> Callable[[], Any]:
     spec = get_domain(domain)
     cfg = SACConfig(precision=precision)  # type: ignore[arg-type]
-    rng = np.random.default_rng(0)
-    data = _Data(
-        domain,
-        rng.standard_normal((1000, spec.obs_dim)).astype(np.float32),
-        rng.uniform(-1, 1, (1000, spec.act_dim)).astype(np.float32),
-    )
+    data = _fake_data(domain)
     agent = SAC(data, cfg, seed=0)
     gen = torch.Generator().manual_seed(0)
 
@@ -109,12 +114,7 @@ def discriminator_step(domain: str, precision: str) -> Callable[[], Any]:
 def dice_step(domain: str, precision: str) -> Callable[[], Any]:
     spec = get_domain(domain)
     cfg = DualConfig(precision=precision)  # type: ignore[arg-type]
-    rng = np.random.default_rng(0)
-    data = _Data(
-        domain,
-        rng.standard_normal((1000, spec.obs_dim)).astype(np.float32),
-        rng.uniform(-1, 1, (1000, spec.act_dim)).astype(np.float32),
-    )
+    data = _fake_data(domain)
     stats = torch.stack([torch.zeros(spec.obs_dim), torch.ones(spec.obs_dim)])
     learner = DiceLearner(Discriminator("sa", stats, spec.act_dim, 256, "bf16"), data, cfg)
     gen = torch.Generator().manual_seed(0)
