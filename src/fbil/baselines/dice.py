@@ -77,7 +77,7 @@ class DualConfig:
     precision: Literal["fp32", "bf16"] = "bf16"
     # Where the (1 - gamma) E[nu(s0)] term draws s0: the dataset's episode starts (and the
     # demos' first states for a union), or the demos' first states alone (`demos`).
-    initial_states: str = "dataset"
+    initial_states: Literal["dataset", "demos"] = "dataset"
 
     def __post_init__(self) -> None:
         if self.divergence not in DIVERGENCES:
@@ -209,12 +209,11 @@ def train_dice(
     starts = torch.from_numpy(dataset.observation[dataset.episode_start])
     first = [np.asarray(t.observation[:1], np.float32) for t in demos.trajectories]
     demo_starts = torch.from_numpy(np.concatenate(first))
-    expert = None
-    if union:
-        expert = demo_transitions(demos)
-        starts = torch.cat([starts, demo_starts])
+    expert = demo_transitions(demos) if union else None
     if cfg.dual.initial_states == "demos":
         starts = demo_starts
+    elif union:
+        starts = torch.cat([starts, demo_starts])
     # expert_ratio None: rows uniform over the union (or the dataset when expert is None).
     sample = MixedSampler(dataset, expert, cfg.dual.batch_size, None, gen)
     last: dict[str, float] = {}
