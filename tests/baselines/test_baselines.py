@@ -3,6 +3,7 @@ batches, and every baseline end to end at smoke size through `fbil evaluate` and
 benchmark grid, on the maze fixture."""
 
 import json
+import math
 import subprocess
 import sys
 from pathlib import Path
@@ -214,9 +215,14 @@ def test_demodice_learns_on_the_union_of_dataset_and_demos(
     seen: list[torch.Tensor] = []
     update = dice.DiceLearner.update
 
-    def spy(self: dice.DiceLearner, batch: Transitions, starts: torch.Tensor) -> dict[str, float]:
+    def spy(
+        self: dice.DiceLearner,
+        batch: Transitions,
+        starts: torch.Tensor,
+        expert: Transitions | None = None,
+    ) -> dict[str, float]:
         seen.append(batch.expert)
-        return update(self, batch, starts)
+        return update(self, batch, starts, expert)
 
     monkeypatch.setattr(dice.DiceLearner, "update", spy)
     demos, data = Demos.load(demos_dir / "square.npz"), load_dataset(fixture_data)
@@ -229,3 +235,29 @@ def test_demodice_learns_on_the_union_of_dataset_and_demos(
     seen.clear()
     dice.train_dice("smodice", "s", demos, data, cfg, 10.0, 0)
     assert not bool(torch.cat(seen).any())
+
+
+def test_dice_bounded_reward_and_nu_gradient_penalty(demos_dir: Path, fixture_data: Path) -> None:
+    """The DemoDICE code's options: r = -log(1 / (D + eps) - 1 + eps) equals the logit at
+    eps 0 and stays within [log eps, -2 log eps]; nu's gradient penalty enters the loss."""
+    from dataclasses import replace
+
+    from fbil.baselines import dice
+    from fbil.baselines.demodice import DUAL
+
+    logits = torch.tensor([-40.0, -3.0, 0.0, 3.0, 40.0])
+    assert torch.equal(dice.dice_reward(logits), logits)
+    bounded = dice.dice_reward(logits, 1e-3)
+    assert abs(float(bounded[2])) < 1e-2 and abs(float(bounded[1]) + 3.0) < 0.05
+    assert float(bounded.min()) > math.log(1e-3) - 1e-3
+    assert float(bounded.max()) < -2 * math.log(1e-3) + 0.1  # float32 cancellation
+    demos, data = Demos.load(demos_dir / "square.npz"), load_dataset(fixture_data)
+    cfg = dice.smoke(replace(DUAL, nu_grad_penalty=1e-4, reward_eps=1e-3))
+    policy = dice.train_dice("demodice", "sa", demos, data, cfg, 10.0, 0, union=True)
+    assert math.isfinite(policy.info["nu_loss"])
+    learner = dice.DiceLearner(
+        dice.train_discriminator("sa", demos, data, cfg.discriminator, 0), data, cfg.dual
+    )
+    expert = demo_transitions(demos)
+    batch = expert.select(torch.arange(8))
+    assert float(learner.grad_penalty(batch, expert).detach()) > 0

@@ -78,6 +78,13 @@ class DualConfig:
     # Where the (1 - gamma) E[nu(s0)] term draws s0: the dataset's episode starts (and the
     # demos' first states for a union), or the demos' first states alone (`demos`).
     initial_states: Literal["dataset", "demos"] = "dataset"
+    # r = -log(1 / (D + eps) - 1 + eps): eps 0 is the logit log D - log(1 - D) (the paper's
+    # App. B); the DemoDICE/LobsDICE code (geon-hyeong/imitation-dice) uses eps 1e-3, which
+    # bounds r to about [-6.9, 13.8].
+    reward_eps: float = 0.0
+    # Weight of mean |grad_s nu|^2 at the batch's states and at random points between
+    # them and demo states (s and s'), as the same code (1e-4 there); 0: none.
+    nu_grad_penalty: float = 0.0
 
     def __post_init__(self) -> None:
         if self.divergence not in DIVERGENCES:
@@ -131,6 +138,15 @@ def dual_loss(
     return (1 - gamma) * nu0.mean() + (1 + alpha) * spread
 
 
+def dice_reward(logits: torch.Tensor, eps: float = 0.0) -> torch.Tensor:
+    """r = -log(1 / (D + eps) - 1 + eps) for D = sigmoid(logits): the logit itself at eps 0,
+    within about [log(eps), -2 log(eps)] otherwise."""
+    if eps == 0:
+        return logits
+    d = torch.sigmoid(logits)
+    return -torch.log(1 / (d + eps) - 1 + eps)
+
+
 def dice_weights(e: torch.Tensor, alpha: float, divergence: str) -> torch.Tensor:
     """The ratios w = d / d_D of the rows, from their e (no gradient)."""
     y = e.detach() / (1 + alpha)
@@ -167,14 +183,32 @@ class DiceLearner:
     def nu(self, obs: torch.Tensor) -> torch.Tensor:
         return run_mlp(self.nu_net, (obs - self.stats[0]) / self.stats[1], self.cfg.precision)
 
-    def update(self, batch: Transitions, starts: torch.Tensor) -> dict[str, float]:
-        """One step on L(nu), then one on the weighted BC loss L(pi)."""
+    def grad_penalty(self, batch: Transitions, expert: Transitions) -> torch.Tensor:
+        """mean |grad nu|^2 at the batch's states and at random mixes of demo and batch
+        states and of their next states (the DemoDICE code's regulariser of nu)."""
+        pick = torch.randint(0, len(expert.obs), (len(batch.obs), 1))[:, 0]
+        u = torch.rand(len(batch.obs), 1)
+        mixed = [u * expert.obs[pick] + (1 - u) * batch.obs]
+        mixed.append(u * expert.next_obs[pick] + (1 - u) * batch.next_obs)
+        # On standardised states, the networks' input, as the code's normalised states.
+        x = ((torch.cat([batch.obs, *mixed]) - self.stats[0]) / self.stats[1]).requires_grad_()
+        out = run_mlp(self.nu_net, x, self.cfg.precision)
+        (grad,) = torch.autograd.grad(out.sum(), x, create_graph=True)
+        return (grad * grad).sum(-1).mean()
+
+    def update(
+        self, batch: Transitions, starts: torch.Tensor, expert: Transitions | None = None
+    ) -> dict[str, float]:
+        """One step on L(nu), then one on the weighted BC loss L(pi); `expert`: the demo
+        transitions (for nu's gradient penalty)."""
         assert batch.action is not None
         cfg = self.cfg
         with torch.no_grad():
-            reward = self.disc.logits(self.disc.features(batch))
+            reward = dice_reward(self.disc.logits(self.disc.features(batch)), cfg.reward_eps)
         e = advantage(self.nu, batch, reward, self.gamma)
         loss = dual_loss(self.nu(starts), e, self.gamma, cfg.alpha, cfg.divergence)
+        if cfg.nu_grad_penalty > 0 and expert is not None:
+            loss = loss + cfg.nu_grad_penalty * self.grad_penalty(batch, expert)
         self.nu_opt.zero_grad(set_to_none=True)
         loss.backward()
         self.nu_opt.step()
@@ -210,6 +244,7 @@ def train_dice(
     first = [np.asarray(t.observation[:1], np.float32) for t in demos.trajectories]
     demo_starts = torch.from_numpy(np.concatenate(first))
     expert = demo_transitions(demos) if union else None
+    expert_rows = demo_transitions(demos) if cfg.dual.nu_grad_penalty > 0 else None
     if cfg.dual.initial_states == "demos":
         starts = demo_starts
     elif union:
@@ -219,7 +254,7 @@ def train_dice(
     last: dict[str, float] = {}
     for _ in range(cfg.dual.steps):
         s0 = starts[torch.randint(0, len(starts), (cfg.dual.batch_size,), generator=gen)]
-        last = learner.update(sample(), s0)
+        last = learner.update(sample(), s0, expert_rows)
     info = {k: round(v, 5) for k, v in last.items()}
     return mean_action_policy(
         name, learner.policy, learner.stats, learner.act_dim, info, cfg.dual.precision
