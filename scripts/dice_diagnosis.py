@@ -1,14 +1,19 @@
 """One DICE baseline on one maze task with settings of its dual changed (`--set
 KEY=VALUE`, fields of `fbil.baselines.dice.DualConfig`, e.g. initial_states=demos), the
 rest at the `cpu` budget; the demo is draw 0 of K = 1, as `fbil benchmark` draws it. One
-thread; prints one JSON line with the returns of `--episodes` evaluation episodes.
+thread; prints one JSON line with the returns of `--episodes` evaluation episodes, and
+with `--eval-at S1,S2,...` one more line per listed dual step (a learning curve from one
+run: the policy's return there, and the mean nu loss and w_max over the steps since the
+last line).
 
 Usage: python scripts/dice_diagnosis.py {demodice,smodice,lobsdice} TASK [--set K=V ...]
+       [--eval-at 20000,50000]
 """
 
 from __future__ import annotations
 
 import argparse
+import copy
 import dataclasses
 import json
 import time
@@ -17,7 +22,8 @@ import numpy as np
 import torch
 
 from fbil.baselines import demodice, lobsdice, smodice
-from fbil.baselines.dice import DiceConfig, train_dice
+from fbil.baselines.bc import mean_action_policy
+from fbil.baselines.dice import DiceConfig, DiceLearner, train_dice
 from fbil.config import config_from_dict
 from fbil.data import load_dataset
 from fbil.envs.rollout import rollout
@@ -39,6 +45,8 @@ def main() -> None:
     p.add_argument("--episodes", type=int, default=20)
     p.add_argument("--data", default="datasets/point_mass_maze/rnd_uniform_1000_x4")
     p.add_argument("--demos", default="artifacts/demos/point_mass_maze")
+    p.add_argument("--eval-at", default="", help="comma-separated dual steps")
+    p.add_argument("--disc-steps", type=int, default=None, help="default: the cpu budget's")
     args = p.parse_args()
     torch.set_num_threads(1)
     module, kind, union = METHODS[args.method]
@@ -52,7 +60,34 @@ def main() -> None:
     demos = demo_draw(Demos.load(f"{args.demos}/{args.task}.npz"), 1, 0)
     penalty = module.PENALTY[data.domain]
     started = time.time()
-    policy = train_dice(args.method, kind, demos, data, DiceConfig(dual), penalty, 0, union)
+    eval_at = {int(x) for x in args.eval_at.split(",") if x}
+    window: list[dict[str, float]] = []
+
+    def on_step(step: int, learner: DiceLearner, metrics: dict[str, float]) -> None:
+        window.append(metrics)
+        if step not in eval_at:
+            return
+        net = copy.deepcopy(learner.policy)
+        stats, act_dim = learner.stats, learner.act_dim
+        snap = mean_action_policy("snapshot", net, stats, act_dim, {}, dual.precision)
+        snap_ret = rollout("point_mass_maze", args.task, snap, list(range(args.episodes)))
+        total = snap_ret.reward.sum(-1)
+        line = {
+            "step": step,
+            "return_mean": round(float(np.mean(total)), 1),
+            "return_std": round(float(np.std(total)), 1),
+            **{k: round(float(np.mean([m[k] for m in window])), 4) for k in window[0]},
+            "seconds": round(time.time() - started, 1),
+        }
+        print(json.dumps(line), flush=True)
+        window.clear()
+
+    cfg = DiceConfig(dual)
+    if args.disc_steps is not None:
+        cfg = dataclasses.replace(
+            cfg, discriminator=dataclasses.replace(cfg.discriminator, steps=args.disc_steps)
+        )
+    policy = train_dice(args.method, kind, demos, data, cfg, penalty, 0, union, on_step)
     seconds = time.time() - started
     ret = rollout("point_mass_maze", args.task, policy, list(range(args.episodes)))
     returns = ret.reward.sum(-1)

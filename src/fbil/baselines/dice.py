@@ -231,10 +231,12 @@ def train_dice(
     penalty: float,
     seed: int,
     union: bool = False,
+    on_step: Callable[[int, DiceLearner, dict[str, float]], None] | None = None,
 ) -> TrainedPolicy:
     """The discriminator on input `kind` ("sa", "s", "ss"; gradient penalty `penalty`), then
     `cfg.dual.steps` joint nu and policy updates on minibatches of the dataset, or of the
-    dataset and the demonstrations (`union`; they need actions)."""
+    dataset and the demonstrations (`union`; they need actions). `on_step(step, learner,
+    metrics)` is called after every update (diagnostics: learning curves)."""
     disc_cfg = replace(cfg.discriminator, gradient_penalty=penalty)
     disc = train_discriminator(kind, demos, dataset, disc_cfg, seed)
     torch.manual_seed(seed)
@@ -252,9 +254,11 @@ def train_dice(
     # expert_ratio None: rows uniform over the union (or the dataset when expert is None).
     sample = MixedSampler(dataset, expert, cfg.dual.batch_size, None, gen)
     last: dict[str, float] = {}
-    for _ in range(cfg.dual.steps):
+    for step in range(1, cfg.dual.steps + 1):
         s0 = starts[torch.randint(0, len(starts), (cfg.dual.batch_size,), generator=gen)]
         last = learner.update(sample(), s0, expert_rows)
+        if on_step is not None:
+            on_step(step, learner, last)
     info = {k: round(v, 5) for k, v in last.items()}
     return mean_action_policy(
         name, learner.policy, learner.stats, learner.act_dim, info, cfg.dual.precision
