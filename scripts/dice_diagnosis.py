@@ -7,7 +7,7 @@ run: the policy's return there, and the mean nu loss and w_max over the steps si
 last line).
 
 Usage: python scripts/dice_diagnosis.py {demodice,smodice,lobsdice} TASK [--set K=V ...]
-       [--eval-at 20000,50000]
+       [--eval-at 20000,50000] [--disc-steps N] [--penalty W]
 """
 
 from __future__ import annotations
@@ -47,6 +47,7 @@ def main() -> None:
     p.add_argument("--demos", default="artifacts/demos/point_mass_maze")
     p.add_argument("--eval-at", default="", help="comma-separated dual steps")
     p.add_argument("--disc-steps", type=int, default=None, help="default: the cpu budget's")
+    p.add_argument("--penalty", type=float, default=None, help="default: Table 2's")
     args = p.parse_args()
     torch.set_num_threads(1)
     module, kind, union = METHODS[args.method]
@@ -58,7 +59,7 @@ def main() -> None:
     dual = config_from_dict(type(module.DUAL), {**base, **changes})
     data = load_dataset(args.data)
     demos = demo_draw(Demos.load(f"{args.demos}/{args.task}.npz"), 1, 0)
-    penalty = module.PENALTY[data.domain]
+    penalty = module.PENALTY[data.domain] if args.penalty is None else args.penalty
     started = time.time()
     eval_at = {int(x) for x in args.eval_at.split(",") if x}
     window: list[dict[str, float]] = []
@@ -95,6 +96,8 @@ def main() -> None:
         "method": args.method,
         "task": args.task,
         "changes": changes,
+        "disc_steps": cfg.discriminator.steps,
+        "penalty": penalty,
         "return_mean": round(float(np.mean(returns)), 1),
         "return_std": round(float(np.std(returns)), 1),
         "train_seconds": round(seconds, 1),
