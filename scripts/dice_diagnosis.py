@@ -96,6 +96,7 @@ def main() -> None:
         "method": args.method,
         "task": args.task,
         "changes": changes,
+        "data": args.data,
         "disc_steps": cfg.discriminator.steps,
         "penalty": penalty,
         "return_mean": round(float(np.mean(returns)), 1),
