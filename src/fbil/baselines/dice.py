@@ -4,7 +4,9 @@ convex dual over a state function nu on the unsupervised dataset D, and weighted
 1. Reward. ORIL's discriminator (`oril.py`: BCE, expert 1 and dataset 0, with a gradient
    penalty of Table 2's weight for the method and domain) on the method's input x, then
    r(x) = log D(x) - log(1 - D(x)), the logit: at the optimum log(rho_E(x) / rho_D(x))
-   (App. B). x = (s, a) for DemoDICE, s' for SMODICE, (s, s') for LobsDICE.
+   (App. B). x = (s, a) for DemoDICE, s' for SMODICE, (s, s') for LobsDICE. Options from
+   the DemoDICE code, off by default: a bounded form of r (`reward_eps`) and a gradient
+   penalty on nu (`nu_grad_penalty`).
 2. Dual. With e(s, a, s') = r + gamma * discount * nu(s') - nu(s) and y = e / (1 + alpha),
    nu minimises over D's transitions and initial states s0 (the dataset's episode starts;
    `initial_states="demos"`: the demos' first states alone)
@@ -246,7 +248,9 @@ def train_dice(
     first = [np.asarray(t.observation[:1], np.float32) for t in demos.trajectories]
     demo_starts = torch.from_numpy(np.concatenate(first))
     expert = demo_transitions(demos) if union else None
-    expert_rows = demo_transitions(demos) if cfg.dual.nu_grad_penalty > 0 else None
+    expert_rows = None  # nu's gradient penalty mixes demo states in (nu_grad_penalty > 0)
+    if cfg.dual.nu_grad_penalty > 0:
+        expert_rows = expert if expert is not None else demo_transitions(demos)
     if cfg.dual.initial_states == "demos":
         starts = demo_starts
     elif union:
