@@ -17,6 +17,7 @@ import copy
 import dataclasses
 import json
 import time
+from typing import Any, NamedTuple
 
 import numpy as np
 import torch
@@ -37,18 +38,36 @@ METHODS = {  # module, discriminator input, union of dataset and demos
 }
 
 
-def main() -> None:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+class Setup(NamedTuple):
+    """What a DICE diagnostic trains: the method's module, discriminator input and union
+    flag, its dual with the `--set` changes (as given and typed), the data, the demo draw,
+    the penalty and the full config."""
+
+    module: Any
+    kind: str
+    union: bool
+    dual: Any
+    changes: dict[str, object]
+    data: Any
+    demos: Demos
+    penalty: float
+    cfg: DiceConfig
+
+
+def add_setup_args(p: argparse.ArgumentParser) -> None:
+    """The arguments `setup` reads (shared with dice_map.py)."""
     p.add_argument("method", choices=sorted(METHODS))
     p.add_argument("task")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
-    p.add_argument("--episodes", type=int, default=20)
     p.add_argument("--data", default="datasets/point_mass_maze/rnd_uniform_1000_x4")
     p.add_argument("--demos", default="artifacts/demos/point_mass_maze")
-    p.add_argument("--eval-at", default="", help="comma-separated dual steps")
     p.add_argument("--disc-steps", type=int, default=None, help="default: the cpu budget's")
     p.add_argument("--penalty", type=float, default=None, help="default: Table 2's")
-    args = p.parse_args()
+
+
+def setup(args: argparse.Namespace) -> Setup:
+    """One thread; the method's dual with `--set` applied, the data, demo draw 0, the
+    penalty (Table 2's unless `--penalty`) and the discriminator's steps."""
     torch.set_num_threads(1)
     module, kind, union = METHODS[args.method]
     base = dataclasses.asdict(module.DUAL)
@@ -60,6 +79,21 @@ def main() -> None:
     data = load_dataset(args.data)
     demos = demo_draw(Demos.load(f"{args.demos}/{args.task}.npz"), 1, 0)
     penalty = module.PENALTY[data.domain] if args.penalty is None else args.penalty
+    cfg = DiceConfig(dual)
+    if args.disc_steps is not None:
+        disc = dataclasses.replace(cfg.discriminator, steps=args.disc_steps)
+        cfg = dataclasses.replace(cfg, discriminator=disc)
+    return Setup(module, kind, union, dual, changes, data, demos, penalty, cfg)
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    add_setup_args(p)
+    p.add_argument("--episodes", type=int, default=20)
+    p.add_argument("--eval-at", default="", help="comma-separated dual steps")
+    args = p.parse_args()
+    su = setup(args)
+    dual, data, cfg, penalty = su.dual, su.data, su.cfg, su.penalty
     started = time.time()
     eval_at = {int(x) for x in args.eval_at.split(",") if x}
     window: list[dict[str, float]] = []
@@ -83,19 +117,14 @@ def main() -> None:
         print(json.dumps(line), flush=True)
         window.clear()
 
-    cfg = DiceConfig(dual)
-    if args.disc_steps is not None:
-        cfg = dataclasses.replace(
-            cfg, discriminator=dataclasses.replace(cfg.discriminator, steps=args.disc_steps)
-        )
-    policy = train_dice(args.method, kind, demos, data, cfg, penalty, 0, union, on_step)
+    policy = train_dice(args.method, su.kind, su.demos, data, cfg, penalty, 0, su.union, on_step)
     seconds = time.time() - started
     ret = rollout("point_mass_maze", args.task, policy, list(range(args.episodes)))
     returns = ret.reward.sum(-1)
     out = {
         "method": args.method,
         "task": args.task,
-        "changes": changes,
+        "changes": su.changes,
         "data": args.data,
         "disc_steps": cfg.discriminator.steps,
         "penalty": penalty,

@@ -18,24 +18,16 @@ Usage: python scripts/dice_map.py {demodice,smodice,lobsdice} TASK --out PNG [--
 from __future__ import annotations
 
 import argparse
-import dataclasses
 
 import numpy as np
 import torch
+from dice_diagnosis import add_setup_args, setup  # scripts/ is on sys.path when run
 
-from fbil.baselines import demodice, lobsdice, smodice
 from fbil.baselines.common import dataset_rows
-from fbil.baselines.dice import DiceConfig, DiceLearner, advantage, dice_reward, train_dice
-from fbil.config import config_from_dict
-from fbil.data import load_dataset
+from fbil.baselines.dice import DiceLearner, advantage, dice_reward, train_dice
 from fbil.envs import maze
 from fbil.envs.render import _pyplot, _save, draw_maze
 from fbil.envs.rollout import rollout
-from fbil.evaluation.evaluate import demo_draw
-from fbil.imitation import Demos
-
-METHODS = {"demodice": (demodice, "sa", True), "smodice": (smodice, "s", False)}
-METHODS["lobsdice"] = (lobsdice, "ss", False)
 
 
 def cell_means(xy: np.ndarray, value: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -48,37 +40,20 @@ def cell_means(xy: np.ndarray, value: np.ndarray, n: int) -> tuple[np.ndarray, n
 
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("method", choices=sorted(METHODS))
-    p.add_argument("task")
+    add_setup_args(p)
     p.add_argument("--out", required=True)
-    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
     p.add_argument("--rows", type=int, default=200_000)
     p.add_argument("--grid", type=int, default=30)
-    p.add_argument("--penalty", type=float, default=None, help="default: Table 2's")
-    p.add_argument("--disc-steps", type=int, default=None, help="default: the cpu budget's")
-    p.add_argument("--data", default="datasets/point_mass_maze/rnd_uniform_1000_x4")
-    p.add_argument("--demos", default="artifacts/demos/point_mass_maze")
     args = p.parse_args()
-    torch.set_num_threads(1)
-    module, kind, union = METHODS[args.method]
-    base = dataclasses.asdict(module.DUAL)
-    changes = {k: v for k, v in (item.split("=", 1) for item in args.set)}
-    typed = {k: type(base[k])(v) if k in base else v for k, v in changes.items()}
-    dual = config_from_dict(type(module.DUAL), {**base, **typed})
-    data = load_dataset(args.data)
-    demos = demo_draw(Demos.load(f"{args.demos}/{args.task}.npz"), 1, 0)
-    penalty = module.PENALTY[data.domain] if args.penalty is None else args.penalty
+    su = setup(args)
+    dual, data, demos, penalty, changes = su.dual, su.data, su.demos, su.penalty, su.changes
     kept: list[DiceLearner] = []
-    cfg = DiceConfig(dual)
-    if args.disc_steps is not None:
-        disc = dataclasses.replace(cfg.discriminator, steps=args.disc_steps)
-        cfg = dataclasses.replace(cfg, discriminator=disc)
 
     def keep(step: int, learner: DiceLearner, metrics: dict[str, float]) -> None:
         if step == dual.steps:
             kept.append(learner)
 
-    policy = train_dice(args.method, kind, demos, data, cfg, penalty, 0, union, keep)
+    policy = train_dice(args.method, su.kind, demos, data, su.cfg, penalty, 0, su.union, keep)
     learner = kept[0]
     gen = torch.Generator().manual_seed(0)
     rows = torch.randint(0, int(data.num_transitions), (args.rows,), generator=gen)
