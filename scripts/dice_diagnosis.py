@@ -7,7 +7,7 @@ run: the policy's return there, and the mean nu loss and w_max over the steps si
 last line).
 
 Usage: python scripts/dice_diagnosis.py {demodice,smodice,lobsdice} TASK [--set K=V ...]
-       [--eval-at 20000,50000] [--disc-steps N] [--penalty W]
+       [--eval-at 20000,50000] [--disc-steps N] [--penalty W] [--reward true --reward-scale S]
 """
 
 from __future__ import annotations
@@ -17,6 +17,7 @@ import copy
 import dataclasses
 import json
 import time
+from collections.abc import Callable
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -24,6 +25,7 @@ import torch
 
 from fbil.baselines import demodice, lobsdice, smodice
 from fbil.baselines.bc import mean_action_policy
+from fbil.baselines.common import Transitions
 from fbil.baselines.dice import DiceConfig, DiceLearner, train_dice
 from fbil.config import config_from_dict
 from fbil.data import load_dataset
@@ -52,6 +54,7 @@ class Setup(NamedTuple):
     demos: Demos
     penalty: float
     cfg: DiceConfig
+    reward_fn: Callable[[Transitions], torch.Tensor] | None
 
 
 def add_setup_args(p: argparse.ArgumentParser) -> None:
@@ -63,6 +66,14 @@ def add_setup_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--demos", default="artifacts/demos/point_mass_maze")
     p.add_argument("--disc-steps", type=int, default=None, help="default: the cpu budget's")
     p.add_argument("--penalty", type=float, default=None, help="default: Table 2's")
+    p.add_argument(
+        "--reward",
+        choices=["discriminator", "true"],
+        default="discriminator",
+        help="true: the task's own reward times --reward-scale in place of the log-ratio "
+        "(an oracle for the dual and the weighted BC; action-free methods only)",
+    )
+    p.add_argument("--reward-scale", type=float, default=1.0)
 
 
 def setup(args: argparse.Namespace) -> Setup:
@@ -83,7 +94,17 @@ def setup(args: argparse.Namespace) -> Setup:
     if args.disc_steps is not None:
         disc = dataclasses.replace(cfg.discriminator, steps=args.disc_steps)
         cfg = dataclasses.replace(cfg, discriminator=disc)
-    return Setup(module, kind, union, dual, changes, data, demos, penalty, cfg)
+    reward_fn = None
+    if args.reward == "true":
+        if union:
+            raise SystemExit("--reward true: the union's demo rows have no dataset reward")
+        true = torch.from_numpy(data.reward(args.task)) * args.reward_scale
+
+        def reward_fn(batch: Transitions) -> torch.Tensor:
+            assert batch.index is not None
+            return true[batch.index]
+
+    return Setup(module, kind, union, dual, changes, data, demos, penalty, cfg, reward_fn)
 
 
 def main() -> None:
@@ -117,7 +138,9 @@ def main() -> None:
         print(json.dumps(line), flush=True)
         window.clear()
 
-    policy = train_dice(args.method, su.kind, su.demos, data, cfg, penalty, 0, su.union, on_step)
+    policy = train_dice(
+        args.method, su.kind, su.demos, data, cfg, penalty, 0, su.union, on_step, su.reward_fn
+    )
     seconds = time.time() - started
     ret = rollout("point_mass_maze", args.task, policy, list(range(args.episodes)))
     returns = ret.reward.sum(-1)
@@ -128,6 +151,7 @@ def main() -> None:
         "data": args.data,
         "disc_steps": cfg.discriminator.steps,
         "penalty": penalty,
+        "reward": args.reward if args.reward == "discriminator" else f"true x {args.reward_scale}",
         "return_mean": round(float(np.mean(returns)), 1),
         "return_std": round(float(np.std(returns)), 1),
         "train_seconds": round(seconds, 1),

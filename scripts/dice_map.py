@@ -24,7 +24,7 @@ import torch
 from dice_diagnosis import add_setup_args, setup  # scripts/ is on sys.path when run
 
 from fbil.baselines.common import dataset_rows
-from fbil.baselines.dice import DiceLearner, advantage, dice_reward, train_dice
+from fbil.baselines.dice import DiceLearner, advantage, train_dice
 from fbil.envs import maze
 from fbil.envs.render import _pyplot, _save, draw_maze
 from fbil.envs.rollout import rollout
@@ -53,13 +53,15 @@ def main() -> None:
         if step == dual.steps:
             kept.append(learner)
 
-    policy = train_dice(args.method, su.kind, demos, data, su.cfg, penalty, 0, su.union, keep)
+    policy = train_dice(
+        args.method, su.kind, demos, data, su.cfg, penalty, 0, su.union, keep, su.reward_fn
+    )
     learner = kept[0]
     gen = torch.Generator().manual_seed(0)
     rows = torch.randint(0, int(data.num_transitions), (args.rows,), generator=gen)
     batch = dataset_rows(data, rows)
     with torch.no_grad():
-        r = dice_reward(learner.disc.logits(learner.disc.features(batch)), dual.reward_eps)
+        r = learner.reward(batch)
         e = advantage(learner.nu, batch, r, learner.gamma) / (1 + dual.alpha)
     w = torch.exp(e - e.max()) if dual.divergence == "kl" else torch.relu(e + 1)
     xy = batch.next_obs[:, :2].numpy()

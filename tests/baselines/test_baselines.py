@@ -261,3 +261,25 @@ def test_dice_bounded_reward_and_nu_gradient_penalty(demos_dir: Path, fixture_da
     expert = demo_transitions(demos)
     batch = expert.select(torch.arange(8))
     assert float(learner.grad_penalty(batch, expert).detach()) > 0
+
+
+def test_dice_reward_fn_replaces_the_discriminator(demos_dir: Path, fixture_data: Path) -> None:
+    """`reward_fn` (the diagnostics' true-reward oracle) is the reward the dual sees: the
+    rows' dataset indices reach it, and its values, not the log-ratio, enter e."""
+    from fbil.baselines import dice
+    from fbil.baselines.smodice import DUAL
+
+    demos, data = Demos.load(demos_dir / "square.npz"), load_dataset(fixture_data)
+    cfg = dice.smoke(DUAL)
+    seen: list[torch.Tensor] = []
+
+    def reward_fn(batch: Transitions) -> torch.Tensor:
+        assert batch.index is not None
+        seen.append(batch.index)
+        return torch.full((len(batch),), 7.0)
+
+    policy = dice.train_dice("smodice", "s", demos, data, cfg, 10.0, 0, reward_fn=reward_fn)
+    assert len(seen) == cfg.dual.steps and policy.info["r"] == 7.0
+    assert int(torch.cat(seen).max()) < int(data.num_transitions)
+    plain = dice.train_dice("smodice", "s", demos, data, cfg, 10.0, 0)
+    assert plain.info["r"] != 7.0

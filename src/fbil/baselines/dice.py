@@ -173,14 +173,27 @@ def advantage(
 class DiceLearner:
     """nu and the policy on standardised states, their optimisers and one joint update."""
 
-    def __init__(self, disc: Discriminator, dataset: Any, cfg: DualConfig) -> None:
+    def __init__(
+        self,
+        disc: Discriminator,
+        dataset: Any,
+        cfg: DualConfig,
+        reward_fn: Callable[[Transitions], torch.Tensor] | None = None,
+    ) -> None:
         self.disc, self.cfg, self.stats = disc, cfg, disc.stats
+        self.reward_fn = reward_fn
         obs_dim, self.act_dim = dataset.observation.shape[1], dataset.action.shape[1]
         self.gamma = paper_gamma(dataset.domain)
         self.nu_net = _mlp(obs_dim, cfg.hidden, 1)
         self.policy = _mlp(obs_dim, cfg.hidden, 2 * self.act_dim)
         self.nu_opt = torch.optim.Adam(self.nu_net.parameters(), lr=cfg.lr)
         self.policy_opt = torch.optim.Adam(self.policy.parameters(), lr=cfg.lr)
+
+    def reward(self, batch: Transitions) -> torch.Tensor:
+        """The rows' reward: the discriminator's log-ratio, or `reward_fn`'s when given."""
+        if self.reward_fn is not None:
+            return self.reward_fn(batch)
+        return dice_reward(self.disc.logits(self.disc.features(batch)), self.cfg.reward_eps)
 
     def nu(self, obs: torch.Tensor) -> torch.Tensor:
         return run_mlp(self.nu_net, (obs - self.stats[0]) / self.stats[1], self.cfg.precision)
@@ -206,7 +219,7 @@ class DiceLearner:
         assert batch.action is not None
         cfg = self.cfg
         with torch.no_grad():
-            reward = dice_reward(self.disc.logits(self.disc.features(batch)), cfg.reward_eps)
+            reward = self.reward(batch)
         e = advantage(self.nu, batch, reward, self.gamma)
         loss = dual_loss(self.nu(starts), e, self.gamma, cfg.alpha, cfg.divergence)
         if cfg.nu_grad_penalty > 0 and expert is not None:
@@ -234,16 +247,18 @@ def train_dice(
     seed: int,
     union: bool = False,
     on_step: Callable[[int, DiceLearner, dict[str, float]], None] | None = None,
+    reward_fn: Callable[[Transitions], torch.Tensor] | None = None,
 ) -> TrainedPolicy:
     """The discriminator on input `kind` ("sa", "s", "ss"; gradient penalty `penalty`), then
     `cfg.dual.steps` joint nu and policy updates on minibatches of the dataset, or of the
     dataset and the demonstrations (`union`; they need actions). `on_step(step, learner,
-    metrics)` is called after every update (diagnostics: learning curves)."""
+    metrics)` is called after every update (diagnostics: learning curves); `reward_fn(batch)`
+    replaces the discriminator's reward (diagnostics: the task's true reward as an oracle)."""
     disc_cfg = replace(cfg.discriminator, gradient_penalty=penalty)
     disc = train_discriminator(kind, demos, dataset, disc_cfg, seed)
     torch.manual_seed(seed)
     gen = torch.Generator().manual_seed(seed + 1)
-    learner = DiceLearner(disc, dataset, cfg.dual)
+    learner = DiceLearner(disc, dataset, cfg.dual, reward_fn)
     starts = torch.from_numpy(dataset.observation[dataset.episode_start])
     first = [np.asarray(t.observation[:1], np.float32) for t in demos.trajectories]
     demo_starts = torch.from_numpy(np.concatenate(first))
