@@ -283,3 +283,18 @@ def test_dice_reward_fn_replaces_the_discriminator(demos_dir: Path, fixture_data
     assert int(torch.cat(seen).max()) < int(data.num_transitions)
     plain = dice.train_dice("smodice", "s", demos, data, cfg, 10.0, 0)
     assert plain.info["r"] != 7.0
+
+
+def test_offline_td3_bc_alpha_reaches_the_actor_loss() -> None:
+    """`OfflineTD3Config.bc_alpha` (TD3+BC, the ORIL/OTR reference code's policy loss) reaches
+    TD3: with it the actor loss is -lambda Q + |pi(s) - a|^2 (>= -alpha), without it -Q."""
+    from fbil.agents.td3 import TD3
+    from fbil.baselines.offline_td3 import OfflineTD3Config
+
+    cfg = OfflineTD3Config(hidden=32, batch_size=16, bc_alpha=2.5).td3("point_mass_maze")
+    assert cfg.bc_alpha == 2.5 and OfflineTD3Config().td3("walker").bc_alpha is None
+    obs, act = torch.randn(16, 4), torch.rand(16, 2) * 2 - 1
+    with_bc = float(TD3(4, 2, cfg, seed=0).actor_loss(obs, act).detach())
+    plain = TD3(4, 2, OfflineTD3Config(hidden=32).td3("point_mass_maze"), seed=0)
+    q = float(-plain.actor_loss(obs, act).detach())
+    assert with_bc >= -2.5 - 1e-5 and abs(with_bc - float(-q)) > 1e-6

@@ -35,6 +35,10 @@ class OfflineTD3Config:
     # bf16 autocast on the hidden layers (last layers, losses and Adam in fp32): 2.08x less
     # CPU time per update at the maze size (15.8 against 7.6 ms, 1 thread); see docs.
     precision: Literal["fp32", "bf16"] = "bf16"
+    # TD3+BC's alpha (the actor loss -lambda Q + |pi(s) - a|^2, lambda = alpha / mean |Q|),
+    # as the ORIL and OTR reference code trains its policy; None: plain TD3, the paper's
+    # "offline RL agent" (App. B). A diagnostic option, off in every budget.
+    bc_alpha: float | None = None
 
     def td3(self, domain: str) -> TD3Config:
         return TD3Config(
@@ -46,6 +50,7 @@ class OfflineTD3Config:
             policy_noise=self.policy_noise,
             noise_clip=self.noise_clip,
             precision=self.precision,
+            bc_alpha=self.bc_alpha,
         )
 
 
