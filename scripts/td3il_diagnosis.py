@@ -1,4 +1,4 @@
-"""TD3IL on one maze task with one thing changed at a time, to see what bounds it: the share
+"""TD3IL on one task (the maze unless `--domain`) with one thing changed at a time, to see what bounds it: the share
 of expert rows in each minibatch (`--ratio`; the paper's 0.002), the reward (`--reward
 true`: no demo, the dataset relabeled with the task's true reward, i.e. the same offline
 TD3 as an oracle), the data (`--max-episodes`: the first N episodes of the dataset) and the
@@ -6,7 +6,7 @@ number of gradient steps. Everything else is td3il's `cpu` budget; the demo is d
 K = 1, as `fbil benchmark` draws it. One thread; prints one JSON line.
 
 Usage: python scripts/td3il_diagnosis.py TASK [--ratio R] [--reward {01,true}] [--steps N]
-       [--max-episodes N] [--episodes 20] [--data DIR] [--demos DIR]
+       [--max-episodes N] [--episodes 20] [--domain point_mass_maze] [--data DIR] [--demos DIR]
 """
 
 from __future__ import annotations
@@ -36,6 +36,7 @@ def main() -> None:
     p.add_argument("--steps", type=int, default=td3il.BUDGETS["cpu"].td3.steps)
     p.add_argument("--max-episodes", type=int, default=None)
     p.add_argument("--episodes", type=int, default=20)
+    p.add_argument("--domain", default="point_mass_maze")
     p.add_argument("--data", default="datasets/point_mass_maze/rnd_uniform_1000_x4")
     p.add_argument("--demos", default="artifacts/demos/point_mass_maze")
     args = p.parse_args()
@@ -57,9 +58,10 @@ def main() -> None:
     agent, info = train_offline_td3(data, label, cfg, 0, expert, args.ratio if expert else None)
     seconds = time.time() - started
     policy = TrainedPolicy("td3il", agent.act, agent_state(agent), info, agent.cfg.precision)
-    returns = rollout("point_mass_maze", args.task, policy, list(range(args.episodes)))
+    returns = rollout(args.domain, args.task, policy, list(range(args.episodes)))
     ret = returns.reward.sum(-1)
     out = {
+        "domain": args.domain,
         "task": args.task,
         "reward": args.reward,
         "ratio": args.ratio if expert else None,
