@@ -1,9 +1,10 @@
-"""TD3IL on one task (the maze unless `--domain`) with one thing changed at a time, to see what bounds it: the share
-of expert rows in each minibatch (`--ratio`; the paper's 0.002), the reward (`--reward
-true`: no demo, the dataset relabeled with the task's true reward, i.e. the same offline
-TD3 as an oracle), the data (`--max-episodes`: the first N episodes of the dataset) and the
-number of gradient steps. Everything else is td3il's `cpu` budget; the demo is draw 0 of
-K = 1, as `fbil benchmark` draws it. One thread; prints one JSON line.
+"""TD3IL on one task (the maze unless `--domain`) with one thing changed at a time, to see
+what bounds it: the share of expert rows in each minibatch (`--ratio`; the paper's 0.002),
+the reward (`--reward true`: no demo, the dataset relabeled with the task's true reward,
+i.e. the same offline TD3 as an oracle), the data (`--max-episodes`: the first N episodes
+of the dataset) and the number of gradient steps. Everything else is td3il's `cpu` budget;
+the demo is draw 0 of K = 1, as `fbil benchmark` draws it. One thread; prints one JSON
+line.
 
 Usage: python scripts/td3il_diagnosis.py TASK [--ratio R] [--reward {01,true}] [--steps N]
        [--max-episodes N] [--episodes 20] [--domain point_mass_maze] [--data DIR] [--demos DIR]
