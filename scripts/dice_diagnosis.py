@@ -41,14 +41,12 @@ METHODS = {  # module, discriminator input, union of dataset and demos
 
 
 class Setup(NamedTuple):
-    """What a DICE diagnostic trains: the method's module, discriminator input and union
-    flag, its dual with the `--set` changes (as given and typed), the data, the demo draw,
-    the penalty and the full config."""
+    """What a DICE diagnostic trains: the method's discriminator input and union flag, the
+    `--set` changes (typed), the data, the demo draw, the penalty and the full config (its
+    dual with the changes applied)."""
 
-    module: Any
     kind: str
     union: bool
-    dual: Any
     changes: dict[str, object]
     data: Any
     demos: Demos
@@ -104,7 +102,7 @@ def setup(args: argparse.Namespace) -> Setup:
             assert batch.index is not None
             return true[batch.index]
 
-    return Setup(module, kind, union, dual, changes, data, demos, penalty, cfg, reward_fn)
+    return Setup(kind, union, changes, data, demos, penalty, cfg, reward_fn)
 
 
 def main() -> None:
@@ -114,7 +112,8 @@ def main() -> None:
     p.add_argument("--eval-at", default="", help="comma-separated dual steps")
     args = p.parse_args()
     su = setup(args)
-    dual, data, cfg, penalty = su.dual, su.data, su.cfg, su.penalty
+    data, cfg, penalty = su.data, su.cfg, su.penalty
+    dual = cfg.dual
     started = time.time()
     eval_at = {int(x) for x in args.eval_at.split(",") if x}
     window: list[dict[str, float]] = []

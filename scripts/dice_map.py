@@ -46,7 +46,8 @@ def main() -> None:
     p.add_argument("--grid", type=int, default=30)
     args = p.parse_args()
     su = setup(args)
-    dual, data, demos, penalty, changes = su.dual, su.data, su.demos, su.penalty, su.changes
+    data, demos, penalty, changes = su.data, su.demos, su.penalty, su.changes
+    dual = su.cfg.dual
     kept: list[DiceLearner] = []
 
     def keep(step: int, learner: DiceLearner, metrics: dict[str, float]) -> None:
