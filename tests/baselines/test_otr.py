@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fbil.baselines.otr import OTRConfig, cosine_cost, otr_rewards, relabel
+from fbil.baselines.otr import OTRConfig, cosine_cost, otr_rewards, relabel, return_scale
 from fbil.data import load_dataset
 from fbil.imitation import from_arrays
 from tests.baselines.test_baselines import demos_dir, fbil  # noqa: F401  (fixture)
@@ -65,6 +65,25 @@ def test_relabeling_follows_the_datasets_transition_order(fixture_data: Path) ->
     rows0 = np.flatnonzero(dataset.next_index <= e[0])
     assert best[rows0].min() > 0.99 * cfg.alpha
     assert np.all(best.reshape(4, -1).sum(1) >= rewards.reshape(4, -1).sum(1) - 1e-6)
+
+
+def test_the_return_span_option_stretches_episode_returns_to_the_span(fixture_data: Path) -> None:
+    """OTR's reference rescaling: rewards x span / (max - min episode return), so the
+    relabeled episodes' returns then differ by exactly `span`; the default leaves them."""
+    dataset = load_dataset(fixture_data)
+    s, e = dataset.episode_start, dataset.episode_end
+    demos = from_arrays([dataset.observation[s[2] : e[2] + 1]])
+    plain = relabel(dataset, demos, OTRConfig(iterations=30)).numpy()
+    scaled = relabel(dataset, demos, OTRConfig(iterations=30, return_span=1000.0)).numpy()
+    returns = np.array(
+        [
+            scaled[(dataset.next_index > s[ep]) & (dataset.next_index <= e[ep])].sum()
+            for ep in range(dataset.num_episodes)
+        ]
+    )
+    assert abs(returns.max() - returns.min() - 1000.0) < 0.1  # float32 sums
+    np.testing.assert_allclose(scaled / plain, scaled[0] / plain[0], rtol=1e-5)
+    assert return_scale([np.ones(3), np.ones(3)], 1000.0) == 1.0  # equal returns: no scale
 
 
 def test_otr_runs_end_to_end_from_the_command_line(

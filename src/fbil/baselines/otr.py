@@ -38,6 +38,7 @@ class OTRConfig:
     alpha: float = 5.0  # OTR's exponential squashing r = alpha * exp(-beta * c / d)
     beta: float = 5.0
     batch_episodes: int = 64  # episodes of one length whose costs are computed together
+    return_span: float | None = None  # rewards x span / (max - min episode return) (OTR: 1000)
 
 
 BUDGETS = Budgets(
@@ -114,6 +115,17 @@ def episode_rewards(
     return out
 
 
+def return_scale(per_episode: list[np.ndarray], span: float | None) -> float:
+    """The factor that stretches the episodes' returns to `span` between the lowest and the
+    highest (the OTR reference code's rescaling, IQL's for locomotion: span 1000); 1 when
+    `span` is None or all returns are equal."""
+    if span is None:
+        return 1.0
+    returns = np.array([r.sum() for r in per_episode])
+    width = float(returns.max() - returns.min()) if len(returns) else 0.0
+    return span / width if width > 0 else 1.0
+
+
 def relabel(dataset: Any, demos: Demos, cfg: OTRConfig) -> torch.Tensor:
     """OTR rewards of every dataset transition, in `next_index` order: episode e's
     transitions are its rows after the reset row, rewarded by their next states."""
@@ -122,7 +134,8 @@ def relabel(dataset: Any, demos: Demos, cfg: OTRConfig) -> torch.Tensor:
         for start, end in zip(dataset.episode_start, dataset.episode_end, strict=True)
     ]
     demo_states = [np.asarray(t.observation, np.float32)[1:] for t in demos.trajectories]
-    rewards = np.concatenate(episode_rewards(episodes, demo_states, cfg))
+    per_episode = episode_rewards(episodes, demo_states, cfg)
+    rewards = np.concatenate(per_episode) * return_scale(per_episode, cfg.return_span)
     assert len(rewards) == dataset.num_transitions
     return torch.from_numpy(rewards.astype(np.float32))
 
@@ -137,6 +150,7 @@ def fit(demos: Demos, context: FitContext) -> TrainedPolicy:
 
     agent, info = train_offline_td3(context.dataset, label, cfg.td3, context.seed)
     info["otr_reward_mean"] = round(float(rewards.mean()), 5)
+    info["otr_reward_max"] = round(float(rewards.max()), 5)
     return TrainedPolicy("otr", agent.act, agent_state(agent), info, agent.cfg.precision)
 
 
