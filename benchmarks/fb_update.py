@@ -10,7 +10,13 @@ processes on the machine barely disturb); `speedup` is the ratio of wall-clock r
 operations (FlopCounterMode) and reports the achieved GFLOP/s as a share of the bf16 and
 fp32 matmul peaks measured in the same run.
 
-    python benchmarks/fb_update.py [--threads 2] [--seconds 20] [--json] [--compile]
+    python benchmarks/fb_update.py [--threads 2] [--seconds 20] [--json] [--compile] [--profile]
+
+`--profile` adds, per path, the CPU time per update spent in matrix products (aten's mm,
+addmm, bmm and their oneDNN kernels, as torch.profiler's self time) and in everything
+else, and `fusion_needed`: the factor by which the default path's non-matmul time would
+have to fall for `cpu_speedup` to reach 2.5 with its matmuls as they are (no factor can
+when the matmuls alone exceed the budget).
 """
 
 from __future__ import annotations
@@ -94,6 +100,24 @@ def trainer(domain: str, preset_name: str, path: str) -> FBTrainer:
     return tr
 
 
+MATMUL_OPS = ("aten::mm", "aten::addmm", "aten::bmm", "aten::_addmm_activation")
+
+
+def matmul_split(tr: FBTrainer, steps: int = 20) -> dict[str, float]:
+    """CPU ms per update in matrix products and in the rest (profiler self times)."""
+    from torch.profiler import ProfilerActivity, profile
+
+    with profile(activities=[ProfilerActivity.CPU]) as prof:
+        for _ in range(steps):
+            tr.update()
+    events = prof.key_averages()
+    total = sum(e.self_cpu_time_total for e in events) / 1e3 / steps
+    mm = sum(e.self_cpu_time_total for e in events if e.key in MATMUL_OPS) / 1e3 / steps
+    # oneDNN's bf16 products appear as aten::mm calling mkldnn kernels: count those too.
+    mm += sum(e.self_cpu_time_total for e in events if "mkldnn" in e.key) / 1e3 / steps
+    return {"matmul_ms": round(mm, 2), "other_ms": round(total - mm, 2)}
+
+
 def gflop_per_step(tr: FBTrainer) -> float:
     with FlopCounterMode(display=False) as counter:
         tr.update()
@@ -101,7 +125,12 @@ def gflop_per_step(tr: FBTrainer) -> float:
 
 
 def measure(
-    domain: str, preset_name: str, seconds: float, peaks: dict[str, float], compile: bool
+    domain: str,
+    preset_name: str,
+    seconds: float,
+    peaks: dict[str, float],
+    compile: bool,
+    profile: bool = False,
 ) -> dict[str, Any]:
     paths = ["default", "eager_fp32"] + (["compiled"] if compile else [])
     trainers = {path: trainer(domain, preset_name, path) for path in paths}
@@ -129,6 +158,14 @@ def measure(
         out["compiled_steps_per_s"] = round(comp["steps_per_s"], 2)
         out["compiled_cpu_ms_per_step"] = round(comp["cpu_ms"], 2)
         out["compile_seconds"] = round(trainers["compiled"].warmup_seconds, 1)  # type: ignore[attr-defined]
+    if profile:
+        split = {p: matmul_split(trainers[p]) for p in ("default", "eager_fp32")}
+        out["profile"] = split
+        fp32_total = split["eager_fp32"]["matmul_ms"] + split["eager_fp32"]["other_ms"]
+        budget = fp32_total / 2.5 - split["default"]["matmul_ms"]
+        out["fusion_needed"] = (
+            round(split["default"]["other_ms"] / budget, 2) if budget > 0 else None
+        )
     return out
 
 
@@ -138,6 +175,7 @@ def main() -> None:
     parser.add_argument("--seconds", type=float, default=20.0, help="per configuration")
     parser.add_argument("--paper", action="store_true", help="also the paper-size configs")
     parser.add_argument("--compile", action="store_true", help="also the compiled path")
+    parser.add_argument("--profile", action="store_true", help="matmul / other CPU time")
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args()
     if args.threads:
@@ -147,7 +185,8 @@ def main() -> None:
     if args.paper:
         runs += [("paper_maze", "point_mass_maze", "paper"), ("paper_walker", "walker", "paper")]
     configs = {
-        name: measure(dom, pre, args.seconds, peaks, args.compile) for name, dom, pre in runs
+        name: measure(dom, pre, args.seconds, peaks, args.compile, args.profile)
+        for name, dom, pre in runs
     }
     result = {
         "threads": torch.get_num_threads(),
