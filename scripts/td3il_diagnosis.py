@@ -3,11 +3,14 @@ what bounds it: the share of expert rows in each minibatch (`--ratio`; the paper
 the reward (`--reward true`: no demo, the dataset relabeled with the task's true reward,
 i.e. the same offline TD3 as an oracle), the data (`--max-episodes`: the first N episodes
 of the dataset) and the number of gradient steps. Everything else is td3il's `cpu` budget;
-the demo is draw 0 of K = 1, as `fbil benchmark` draws it. One thread; prints one JSON
-line.
+the demo is draw 0 of K = 1, as `fbil benchmark` draws it. `--eval-at N1,N2,..` also
+evaluates the policy after those updates of the same run (a budget curve for the price of
+its longest point), and `--hidden` sets the networks' width. One thread; prints one JSON
+line per evaluation.
 
 Usage: python scripts/td3il_diagnosis.py TASK [--ratio R] [--reward {01,true}] [--steps N]
-       [--max-episodes N] [--episodes 20] [--domain point_mass_maze] [--data DIR] [--demos DIR]
+       [--eval-at N1,N2] [--hidden H] [--max-episodes N] [--episodes 20]
+       [--domain point_mass_maze] [--data DIR] [--demos DIR]
 """
 
 from __future__ import annotations
@@ -20,6 +23,7 @@ import time
 import numpy as np
 import torch
 
+from fbil.agents.td3 import TD3
 from fbil.baselines import td3il
 from fbil.baselines.common import TrainedPolicy, Transitions, demo_transitions
 from fbil.baselines.offline_td3 import agent_state, train_offline_td3
@@ -35,6 +39,8 @@ def main() -> None:
     p.add_argument("--ratio", type=float, default=td3il.BUDGETS["cpu"].expert_ratio)
     p.add_argument("--reward", choices=["01", "true"], default="01")
     p.add_argument("--steps", type=int, default=td3il.BUDGETS["cpu"].td3.steps)
+    p.add_argument("--eval-at", default="", help="comma-separated update counts < --steps")
+    p.add_argument("--hidden", type=int, default=td3il.BUDGETS["cpu"].td3.hidden)
     p.add_argument("--max-episodes", type=int, default=None)
     p.add_argument("--episodes", type=int, default=20)
     p.add_argument("--domain", default="point_mass_maze")
@@ -43,7 +49,7 @@ def main() -> None:
     args = p.parse_args()
     torch.set_num_threads(1)
     data = load_dataset(args.data, max_episodes=args.max_episodes)
-    cfg = dataclasses.replace(td3il.BUDGETS["cpu"].td3, steps=args.steps)
+    cfg = dataclasses.replace(td3il.BUDGETS["cpu"].td3, steps=args.steps, hidden=args.hidden)
     expert: Transitions | None = None
     if args.reward == "01":
         expert = demo_transitions(demo_draw(Demos.load(f"{args.demos}/{args.task}.npz"), 1, 0))
@@ -56,24 +62,36 @@ def main() -> None:
             return true[batch.index]
 
     started = time.time()
-    agent, info = train_offline_td3(data, label, cfg, 0, expert, args.ratio if expert else None)
-    seconds = time.time() - started
-    policy = TrainedPolicy("td3il", agent.act, agent_state(agent), info, agent.cfg.precision)
-    returns = rollout(args.domain, args.task, policy, list(range(args.episodes)))
-    ret = returns.reward.sum(-1)
-    out = {
-        "domain": args.domain,
-        "task": args.task,
-        "reward": args.reward,
-        "ratio": args.ratio if expert else None,
-        "steps": args.steps,
-        "episodes_of_data": int(data.num_episodes),
-        "return_mean": round(float(np.mean(ret)), 1),
-        "return_std": round(float(np.std(ret)), 1),
-        "train_seconds": round(seconds, 1),
-        "info": info,
-    }
-    print(json.dumps(out), flush=True)
+    eval_at = {int(n) for n in args.eval_at.split(",") if n}
+
+    def report(steps: int, agent: TD3, info: dict[str, float]) -> None:
+        seconds = time.time() - started
+        policy = TrainedPolicy("td3il", agent.act, agent_state(agent), info, agent.cfg.precision)
+        returns = rollout(args.domain, args.task, policy, list(range(args.episodes)))
+        ret = returns.reward.sum(-1)
+        out = {
+            "domain": args.domain,
+            "task": args.task,
+            "reward": args.reward,
+            "ratio": args.ratio if expert else None,
+            "steps": steps,
+            "hidden": args.hidden,
+            "episodes_of_data": int(data.num_episodes),
+            "return_mean": round(float(np.mean(ret)), 1),
+            "return_std": round(float(np.std(ret)), 1),
+            "train_seconds": round(seconds, 1),  # evaluations of earlier points included
+            "info": info,
+        }
+        print(json.dumps(out), flush=True)
+
+    def on_step(t: int, agent: TD3) -> None:
+        if t in eval_at and t < args.steps:
+            report(t, agent, {})
+
+    agent, info = train_offline_td3(
+        data, label, cfg, 0, expert, args.ratio if expert else None, on_step
+    )
+    report(args.steps, agent, info)
 
 
 if __name__ == "__main__":

@@ -298,3 +298,23 @@ def test_offline_td3_bc_alpha_reaches_the_actor_loss() -> None:
     plain = TD3(4, 2, OfflineTD3Config(hidden=32).td3("point_mass_maze"), seed=0)
     q = float(-plain.actor_loss(obs, act).detach())
     assert with_bc >= -2.5 - 1e-5 and abs(with_bc - float(-q)) > 1e-6
+
+
+def test_offline_td3_on_step_sees_every_update_and_the_final_agent(fixture_data: Path) -> None:
+    """`train_offline_td3(on_step=...)` (a diagnostic's budget curve within one run) is
+    called after updates 1..steps with the agent being trained, and changes nothing."""
+    from fbil.baselines.offline_td3 import OfflineTD3Config, train_offline_td3
+
+    dataset = load_dataset(fixture_data)
+    cfg = OfflineTD3Config(steps=5, hidden=16, batch_size=32)
+    seen: list[int] = []
+    agents: set[int] = set()
+
+    def on_step(t: int, agent: object) -> None:
+        seen.append(t)
+        agents.add(id(agent))
+
+    agent, info = train_offline_td3(dataset, labels, cfg, 0, on_step=on_step)
+    assert seen == [1, 2, 3, 4, 5] and agents == {id(agent)}
+    _, plain = train_offline_td3(dataset, labels, cfg, 0)
+    assert plain == info  # the same seed gives the same last update with or without it

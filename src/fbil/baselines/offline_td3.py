@@ -108,21 +108,25 @@ def train_offline_td3(
     seed: int,
     expert: Transitions | None = None,
     expert_ratio: float | None = None,
+    on_step: Callable[[int, TD3], None] | None = None,
 ) -> tuple[TD3, dict[str, float]]:
     """TD3 trained for `config.steps` updates on relabeled minibatches; the agent and the
-    last update's numbers (critic loss, mean Q, mean reward)."""
+    last update's numbers (critic loss, mean Q, mean reward). `on_step(t, agent)` runs
+    after update t (1-based): a diagnostic's budget curve within one run."""
     spec = config.td3(dataset.domain)
     agent = TD3(dataset.observation.shape[1], dataset.action.shape[1], spec, seed)
     agent.set_obs_stats(dataset.observation)
     sample = MixedSampler(dataset, expert, spec.batch_size, expert_ratio, agent.gen)
     last: dict[str, float] = {}
-    for _ in range(config.steps):
+    for t in range(1, config.steps + 1):
         batch = sample()
         with torch.no_grad():
             reward = label(batch).float()
         assert batch.action is not None
         metrics = agent.update(batch.obs, batch.action, reward, batch.next_obs, batch.discount)
         last = {**metrics, "reward_mean": float(reward.mean())}
+        if on_step is not None:
+            on_step(t, agent)
     return agent, {k: round(v, 5) for k, v in last.items()}
 
 
