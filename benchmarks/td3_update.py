@@ -6,7 +6,9 @@ random batches of the walker's sizes (obs 24, action 6; hidden 256, batch 256 as
 and with fp32, in alternating slices of ~1 s; `speedup` is the ratio of wall-clock rates,
 `cpu_speedup` that of CPU time per step (robust to other processes' load).
 
-    python benchmarks/td3_update.py [--threads 1] [--seconds 20] [--json]
+    python benchmarks/td3_update.py [--threads 1] [--seconds 20] [--hidden 256] [--json]
+
+`--hidden` sets the networks' width (e.g. 1024, the paper's), to plan an expert's budget.
 """
 
 from __future__ import annotations
@@ -24,9 +26,9 @@ from fbil.agents.td3 import TD3, TD3Config
 from fbil.envs import get_domain
 
 
-def updater(domain: str, precision: str) -> tuple[TD3, object]:
+def updater(domain: str, precision: str, hidden: int = 256) -> tuple[TD3, object]:
     spec = get_domain(domain)
-    cfg = TD3Config(nstep=3, precision=precision)  # type: ignore[arg-type]
+    cfg = TD3Config(hidden=hidden, nstep=3, precision=precision)  # type: ignore[arg-type]
     agent = TD3(spec.obs_dim, spec.act_dim, cfg, seed=0)
     gen = torch.Generator().manual_seed(0)
     n = cfg.batch_size
@@ -66,14 +68,16 @@ def main() -> None:
     parser.add_argument("--threads", type=int, default=1, help="1, as experts train")
     parser.add_argument("--seconds", type=float, default=20.0)
     parser.add_argument("--domain", default="walker")
+    parser.add_argument("--hidden", type=int, default=256, help="256, as `fbil expert`")
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args()
     torch.set_num_threads(args.threads)
-    _, bf16_step = updater(args.domain, "bf16")
-    _, fp32_step = updater(args.domain, "fp32")
+    _, bf16_step = updater(args.domain, "bf16", args.hidden)
+    _, fp32_step = updater(args.domain, "fp32", args.hidden)
     result = {
         "threads": torch.get_num_threads(),
         "domain": args.domain,
+        "hidden": args.hidden,
         **bf16_against_fp32(bf16_step, fp32_step, args.seconds),
     }
     if args.json:
