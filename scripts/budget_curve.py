@@ -10,21 +10,29 @@ per method the paper's score on the same tasks) and OUT/budget_curve.png (score 
 time to policy, log x, the paper's score dashed). `fbil report` shows both when
 budget_curve.json sits next to the results file or is passed with --budget-curve.
 
+`--reuse FILE` (e.g. the domain's committed baselines.jsonl) copies FILE's lines of the
+very jobs a grid would run (same method, task, draw, demos, data, seed, episodes and
+budget) into that grid's results file first, so they are not run again: a grid at the
+`cpu` budget gives the curve its scale-1 point for free.
+
 Usage: python scripts/budget_curve.py --methods bc,td3il,sqil \
            --tasks reach_top_left,loop --scales 0.25,0.5,1,2 --draws 2 --episodes 20 \
            --demos DIR [--data DIR] --out DIR [--budget cpu] [--workers N] [--threads N]
+           [--reuse RESULTS.jsonl]
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 import time
 from pathlib import Path
 from typing import Any
 
+from fbil.checkpoint import atomic_write_text
 from fbil.errors import FbilError
-from fbil.evaluation.benchmark import make_jobs, read_results, run_benchmark
+from fbil.evaluation.benchmark import job_key, make_jobs, read_results, run_benchmark
 from fbil.evaluation.budget_curve import build_curve, curve_point, scaled_spec, write_curve
 from fbil.evaluation.report import summarise
 
@@ -47,6 +55,19 @@ def results_file(out: Path, spec: str) -> Path:
     return out / f"results_{spec}.jsonl"
 
 
+def reuse_lines(source: Path, jobs: list[Any], target: Path) -> int:
+    """Copy the lines of `source` that finished one of `jobs` (and are not in `target` yet)
+    into `target`; how many were copied."""
+    wanted = {job.key for job in jobs}
+    have = {job_key(r) for r in read_results(target)}
+    rows = [r for r in read_results(source, repair=False) if job_key(r) in wanted - have]
+    unique = list({job_key(r): r for r in rows}.values())  # one line per job
+    if unique:
+        kept = read_results(target)
+        atomic_write_text(target, "".join(json.dumps(r) + "\n" for r in [*kept, *unique]))
+    return len(unique)
+
+
 def run_grids(args: argparse.Namespace, scales: list[float]) -> dict[float, tuple[str, Path]]:
     """Every budget's grid, all checked before any runs (a bad method, task, scale or a
     missing dataset is refused first), then run from the smallest budget up."""
@@ -62,6 +83,10 @@ def run_grids(args: argparse.Namespace, scales: list[float]) -> dict[float, tupl
 
     commit = git_commit()
     for spec, jobs in grids.values():
+        if args.reuse:
+            out.mkdir(parents=True, exist_ok=True)
+            n = reuse_lines(Path(args.reuse), jobs, results_file(out, spec))
+            print(f"{spec}: {n} jobs reused from {args.reuse}")
         started = time.perf_counter()
         new = run_benchmark(jobs, results_file(out, spec), args.workers, commit=commit,
                             threads=args.threads)  # fmt: skip
@@ -110,6 +135,7 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     p.add_argument("--workers", type=int, default=1, help="jobs run in parallel")
     p.add_argument("--threads", type=int, default=1, help="torch threads per worker")
     p.add_argument("--out", required=True, help="folder for results files and the curve")
+    p.add_argument("--reuse", default=None, help="a results file whose matching jobs count")
     return p.parse_args(argv)
 
 

@@ -195,3 +195,26 @@ def test_the_report_shows_the_curve_next_to_the_results(curve_dir: Path, tmp_pat
     other.write_text(json.dumps({**curve, "domain": "walker"}))
     with pytest.raises(FbilError, match=r"the budget curve .* is of walker"):
         write_report(alone, tmp_path / "x", other)
+
+
+def test_reuse_takes_the_matching_jobs_of_a_results_file_instead_of_running_them(
+    curve_dir: Path,
+    demos_dir: Path,  # noqa: F811
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """`--reuse FILE`: FILE's lines of the grid's own jobs are copied, not rerun; lines of
+    other jobs (another draw count or budget) are left out."""
+    source = tmp_path / "grid.jsonl"
+    lines = (curve_dir / "results_smoke.jsonl").read_text().splitlines()
+    other = {**json.loads(lines[0]), "draw": 7}  # a job the curve does not run
+    source.write_text("\n".join([*lines, lines[0], json.dumps(other)]) + "\n")
+    out = tmp_path / "curve"
+    args = ["--methods", "bc", "--tasks", "square", "--scales", "1", "--budget", "smoke"]
+    args += ["--draws", "1", "--episodes", "1", "--demos", str(demos_dir), "--out", str(out)]
+    assert _script().main([*args, "--reuse", str(source)]) == 0
+    printed = capsys.readouterr().out
+    assert "smoke: 1 jobs reused" in printed and "smoke: 0 jobs run" in printed
+    assert (out / "results_smoke.jsonl").read_text().splitlines() == lines[:1]
+    assert _script().main([*args, "--reuse", str(source)]) == 0  # nothing twice
+    assert "smoke: 0 jobs reused" in capsys.readouterr().out
