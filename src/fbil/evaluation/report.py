@@ -5,7 +5,8 @@ confidence intervals over demo draws), per-task returns of every method (FB-IL a
 baselines) next to the paper's Tables 5-7, the score by family and IL principle (the
 paper's Fig. 3), time to policy of every method on a log scale next to Table 8 (Fig. 2),
 the baselines' score against training budget when a budget curve is there
-(`fbil.evaluation.budget_curve`), the demo-shift and K comparisons when the results hold
+(`fbil.evaluation.budget_curve`), the model seeds' spread when a seeds.json is there
+(`fbil.evaluation.seeds`), the demo-shift and K comparisons when the results hold
 them, and the demonstration against each method's rollout in the domain's picture (the
 maze: paths, as the paper's Fig. 6; locomotion: frame strips). Results files of several
 domains (one domain per file): one such report per domain and a report over domains (the
@@ -38,6 +39,7 @@ from fbil.evaluation.families import (
     time_table,
 )
 from fbil.evaluation.paper import PAPER_RETURNS, PAPER_SCORES, PAPER_TIMES
+from fbil.evaluation.seeds import find_seeds, seeds_section
 from fbil.imitators import family_of, principle_of
 
 
@@ -341,6 +343,9 @@ def _domain_report(
         if curve is not None and curve.get("domain") == domain:
             lines += curve_section(curve, out)  # the baselines' score against budget
         lines += _limits_section(rows, summary["settings"][main], domain, main)
+        seeds = find_seeds(files, domain)  # several models of one recipe (issue #23)
+        if seeds is not None:
+            lines += seeds_section(seeds)
         lines += _other_settings(summary, main)
     lines += _trajectory_figures(domain, rows, out)
     report = out / "report.md"
