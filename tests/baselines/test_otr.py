@@ -10,6 +10,7 @@ import numpy as np
 
 from fbil.baselines.otr import OTRConfig, cosine_cost, otr_rewards, relabel, return_scale
 from fbil.data import load_dataset
+from fbil.data.oversample import oversample_crossings
 from fbil.imitation import from_arrays
 from tests.baselines.test_baselines import demos_dir, fbil  # noqa: F401  (fixture)
 
@@ -98,3 +99,27 @@ def test_otr_runs_end_to_end_from_the_command_line(
     out = json.loads(res.stdout)["methods"]["otr"]
     assert out["family"] == "offline-il" and np.isfinite(out["score"])
     assert out["principle"] == "reward (optimal transport)"
+
+
+def test_oversampled_windows_take_the_rewards_of_the_transitions_they_copy(tmp_path: Path) -> None:
+    """A window (a copy of a stretch of an episode) is not transported on its own: its
+    transitions get exactly the rewards of the ones they copy, and the whole episodes' are
+    those of the dataset without the windows. DICE's initial states leave the windows out."""
+    from fbil.baselines.dice import reset_states
+    from tests.data.test_oversample import _dataset, _episode
+
+    crossing = _episode(np.linspace(-0.2, 0.2, 21), y=0.1)
+    still = _episode(np.full(15, -0.1), y=0.25)
+    src = _dataset(tmp_path / "src", [crossing, still], "point_mass_maze")
+    oversample_crossings(src, tmp_path / "out", window=3, copies=2)
+    data, plain = load_dataset(tmp_path / "out"), load_dataset(src)
+    demos = from_arrays([crossing["observation"][::2]])
+    cfg = OTRConfig(iterations=50)
+    rewards, base = relabel(data, demos, cfg).numpy(), relabel(plain, demos, cfg).numpy()
+    np.testing.assert_array_equal(rewards[: plain.num_transitions], base)
+    # The crossing episode's transitions into rows 8..14 are the window's seven.
+    for copy in (0, 1):
+        window = rewards[plain.num_transitions + 7 * copy :][:7]
+        np.testing.assert_array_equal(window, base[7:14])
+    starts = reset_states(data).numpy()
+    np.testing.assert_array_equal(starts, data.observation[data.episode_start[:2]])

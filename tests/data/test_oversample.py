@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from fbil.data import load_dataset
-from fbil.data.oversample import oversample_crossings
+from fbil.data.oversample import copy_sources, oversample_crossings
 from fbil.data.storage import write_episode, write_manifest
 from fbil.envs.maze_hooks import doorway_crossings
 from fbil.errors import FbilError
@@ -100,3 +100,24 @@ def test_oversampling_from_the_command_line(tmp_path: Path) -> None:
     made = json.loads(res.stdout)
     assert made["command"].startswith("fbil dataset-oversample") and made["copies"] == 4
     assert load_dataset(out).num_episodes == 1 + 4
+
+
+def test_copy_sources_finds_each_window_in_the_episode_it_copies(tmp_path: Path) -> None:
+    """Oversampled windows start mid-episode: `copy_sources` names the row where each one's
+    observations occur in the longer episode (the windows' starts are not resets); whole
+    episodes, and every episode of a dataset without windows, get -1."""
+    crossing = _episode(np.linspace(-0.2, 0.2, 21))
+    still = _episode(np.full(15, -0.1))
+    src = _dataset(tmp_path / "src", [crossing, still], "point_mass_maze")
+    oversample_crossings(src, tmp_path / "out", window=3, copies=2)
+    data = load_dataset(tmp_path / "out")
+    row7 = data.episode_start[0] + 7  # the window is rows 7..14 of the crossing episode
+    assert copy_sources(data).tolist() == [-1, -1, row7, row7]
+    assert copy_sources(load_dataset(src)).tolist() == [-1, -1]
+    # A short episode that only resembles a stretch of a longer one is not a copy.
+    near = crossing["observation"][7:15].copy()
+    near[-1, 2] += 1e-3
+    ep = {k: v[: len(near)].copy() for k, v in crossing.items()}
+    ep["observation"] = near
+    other = _dataset(tmp_path / "near", [crossing, ep], "point_mass_maze")
+    assert copy_sources(load_dataset(other)).tolist() == [-1, -1]

@@ -8,7 +8,8 @@ convex dual over a state function nu on the unsupervised dataset D, and weighted
    the DemoDICE code, off by default: a bounded form of r (`reward_eps`) and a gradient
    penalty on nu (`nu_grad_penalty`).
 2. Dual. With e(s, a, s') = r + gamma * discount * nu(s') - nu(s) and y = e / (1 + alpha),
-   nu minimises over D's transitions and initial states s0 (the dataset's episode starts;
+   nu minimises over D's transitions and initial states s0 (the dataset's episode starts,
+   oversampled windows left out: they start mid-episode, not at a reset;
    `initial_states="demos"`: the demos' first states alone)
 
      kl:        L(nu) = (1 - gamma) E_s0[nu(s0)] + (1 + alpha) log E_D[exp(y)]
@@ -57,6 +58,7 @@ from fbil.baselines.common import (
 )
 from fbil.baselines.offline_td3 import MixedSampler
 from fbil.baselines.oril import Discriminator, DiscriminatorConfig, train_discriminator
+from fbil.data.oversample import copy_sources
 from fbil.errors import FbilError
 from fbil.imitation.demos import Demos
 from fbil.imitators.base import FitContext, Imitator
@@ -237,6 +239,13 @@ class DiceLearner:
         return {"nu_loss": float(loss.detach()), "w_max": float(w.max()), "r": float(reward.mean())}
 
 
+def reset_states(dataset: Any) -> torch.Tensor:
+    """The dataset's episode starts that follow an environment reset: an oversampled window
+    (`copy_sources`) starts mid-episode, so it is no initial state of the dual."""
+    resets = dataset.episode_start[copy_sources(dataset) < 0]
+    return torch.from_numpy(dataset.observation[resets])
+
+
 def train_dice(
     name: str,
     kind: str,
@@ -259,7 +268,7 @@ def train_dice(
     torch.manual_seed(seed)
     gen = torch.Generator().manual_seed(seed + 1)
     learner = DiceLearner(disc, dataset, cfg.dual, reward_fn)
-    starts = torch.from_numpy(dataset.observation[dataset.episode_start])
+    starts = reset_states(dataset)
     first = [np.asarray(t.observation[:1], np.float32) for t in demos.trajectories]
     demo_starts = torch.from_numpy(np.concatenate(first))
     expert = demo_transitions(demos) if union else None

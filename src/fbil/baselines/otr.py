@@ -25,6 +25,7 @@ import torch
 
 from fbil.baselines.common import TrainedPolicy, Transitions, trained_imitator
 from fbil.baselines.offline_td3 import OfflineTD3Config, agent_state, train_offline_td3
+from fbil.data.oversample import copy_sources
 from fbil.imitation.demos import Demos
 from fbil.imitators.base import FitContext
 from fbil.imitators.budgets import Budgets
@@ -128,16 +129,25 @@ def return_scale(per_episode: list[np.ndarray], span: float | None) -> float:
 
 def relabel(dataset: Any, demos: Demos, cfg: OTRConfig) -> torch.Tensor:
     """OTR rewards of every dataset transition, in `next_index` order: episode e's
-    transitions are its rows after the reset row, rewarded by their next states."""
-    episodes = [
-        dataset.observation[start + 1 : end + 1]
-        for start, end in zip(dataset.episode_start, dataset.episode_end, strict=True)
-    ]
+    transitions are its rows after the reset row, rewarded by their next states. An
+    oversampled window (a copy of a stretch of a longer episode, `copy_sources`) is not an
+    episode of its own: transported alone against the whole demo it would be paid as a
+    poor match; its transitions take the rewards of the ones they copy."""
+    sources = copy_sources(dataset)
+    whole = np.flatnonzero(sources < 0)
+    starts, ends = dataset.episode_start, dataset.episode_end
+    episodes = [dataset.observation[starts[e] + 1 : ends[e] + 1] for e in whole]
     demo_states = [np.asarray(t.observation, np.float32)[1:] for t in demos.trajectories]
     per_episode = episode_rewards(episodes, demo_states, cfg)
-    rewards = np.concatenate(per_episode) * return_scale(per_episode, cfg.return_span)
-    assert len(rewards) == dataset.num_transitions
-    return torch.from_numpy(rewards.astype(np.float32))
+    scale = return_scale(per_episode, cfg.return_span)
+    by_row = np.zeros(len(dataset.observation))  # the reward of the transition into a row
+    for e, rewards in zip(whole, per_episode, strict=True):
+        by_row[starts[e] + 1 : ends[e] + 1] = rewards * scale
+    copies = np.flatnonzero(sources >= 0)
+    for e in copies[np.argsort(starts[copies] - ends[copies], kind="stable")]:  # longest first
+        n = ends[e] - starts[e]
+        by_row[starts[e] + 1 : ends[e] + 1] = by_row[sources[e] + 1 : sources[e] + 1 + n]
+    return torch.from_numpy(by_row[dataset.next_index].astype(np.float32))
 
 
 def fit(demos: Demos, context: FitContext) -> TrainedPolicy:

@@ -15,6 +15,8 @@ import shutil
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from fbil.data.dataset import load_dataset, merge_datasets
 from fbil.data.storage import list_episodes, load_episode, write_episode, write_manifest
 from fbil.envs import DOMAINS, get_domain
@@ -69,3 +71,31 @@ def oversample_crossings(
     manifest.update(crossing_windows=count // copies, window=window, copies=copies)
     write_manifest(out, manifest)
     return manifest
+
+
+def copy_sources(dataset: Any) -> np.ndarray:
+    """For each episode of `dataset`, the row at which its observations occur as a segment
+    of a longer episode, or -1: an oversampled window (a copy of a stretch of some
+    episode) does not start at an environment reset, and a method whose objective needs
+    the starts (DICE's initial states) or whole episodes (OTR's transport) must know it.
+    Found by matching the episode's first observation among the rows of longer episodes,
+    then the whole segment; a dataset without copies gives all -1."""
+    obs = np.ascontiguousarray(dataset.observation)
+    start, end = dataset.episode_start, dataset.episode_end
+    lengths = end - start + 1
+    first_row: dict[bytes, int] = {}
+    for e in np.argsort(-lengths, kind="stable"):  # the longest episodes claim rows first
+        for row in range(start[e], end[e] + 1):
+            first_row.setdefault(obs[row].tobytes(), row)
+    owner = np.repeat(np.arange(len(start)), lengths)
+    sources = np.full(len(start), -1, dtype=np.int64)
+    for e in range(len(start)):
+        row = first_row.get(obs[start[e]].tobytes(), -1)
+        if row < 0 or owner[row] == e or lengths[owner[row]] <= lengths[e]:
+            continue
+        stop = row + lengths[e]
+        if stop <= end[owner[row]] + 1 and np.array_equal(
+            obs[row:stop], obs[start[e] : end[e] + 1]
+        ):
+            sources[e] = row
+    return sources
