@@ -78,24 +78,24 @@ def copy_sources(dataset: Any) -> np.ndarray:
     of a longer episode, or -1: an oversampled window (a copy of a stretch of some
     episode) does not start at an environment reset, and a method whose objective needs
     the starts (DICE's initial states) or whole episodes (OTR's transport) must know it.
-    Found by matching the episode's first observation among the rows of longer episodes,
-    then the whole segment; a dataset without copies gives all -1."""
+    Found by looking up the episode's first observation among the rows of longer episodes
+    (each distinct observation's first row, longest episodes first), then comparing the
+    whole segment; a dataset without copies gives all -1."""
     obs = np.ascontiguousarray(dataset.observation)
+    keys = obs.view(np.dtype((np.void, obs.dtype.itemsize * obs.shape[1]))).ravel()
     start, end = dataset.episode_start, dataset.episode_end
     lengths = end - start + 1
-    first_row: dict[bytes, int] = {}
-    for e in np.argsort(-lengths, kind="stable"):  # the longest episodes claim rows first
-        for row in range(start[e], end[e] + 1):
-            first_row.setdefault(obs[row].tobytes(), row)
     owner = np.repeat(np.arange(len(start)), lengths)
+    order = np.argsort(-lengths[owner], kind="stable")  # rows of the longest episodes first
+    distinct, first = np.unique(keys[order], return_index=True)  # first: in that order
+    pos = np.minimum(np.searchsorted(distinct, keys[start]), len(distinct) - 1)
+    row = order[first[pos]]  # where each episode's first observation occurs first
     sources = np.full(len(start), -1, dtype=np.int64)
-    for e in range(len(start)):
-        row = first_row.get(obs[start[e]].tobytes(), -1)
-        if row < 0 or owner[row] == e or lengths[owner[row]] <= lengths[e]:
-            continue
-        stop = row + lengths[e]
-        if stop <= end[owner[row]] + 1 and np.array_equal(
-            obs[row:stop], obs[start[e] : end[e] + 1]
+    candidates = (distinct[pos] == keys[start]) & (lengths[owner[row]] > lengths)
+    for e in np.flatnonzero(candidates):
+        r, n = row[e], lengths[e]
+        if r + n <= end[owner[r]] + 1 and np.array_equal(
+            obs[r : r + n], obs[start[e] : end[e] + 1]
         ):
-            sources[e] = row
+            sources[e] = r
     return sources
