@@ -10,6 +10,8 @@ is the mean cost of its mass, c_i = n * sum_j P_ij C_ij in [0, 2], and its rewar
 exponential squashing r_i = alpha * exp(-beta * c_i / d) (d: the state size; OTR's
 alpha * exp(beta * T / d * (-sum_j P_ij C_ij)) with T = n). With several demos, each
 episode takes the rewards of the demo that rewards it most (OTR's top-1 aggregation).
+Oversampled windows (short copies of stretches of episodes) take the rewards of the
+transitions they copy; `return_span` optionally rescales rewards as the reference code does.
 """
 
 from __future__ import annotations
