@@ -1,0 +1,95 @@
+"""Side by side: several FB models (recipes, fine-tunes, checkpoints) on the same grid.
+
+Each `--run NAME=RESULTS[,ZERO_SHOT]` names the results file of `fbil benchmark --model M ...`
+for one model and, optionally, the `--json` output of `fbil zero-shot M ...`. Prints, per
+model, the mean imitation score (%) of each method and of all methods, the zero-shot
+returns, and the mean return per task of the methods in --per-task; writes them with --out.
+Lines are kept only for the demo draws in --draws (all by default), so models evaluated on
+different numbers of draws can be compared on the draws they share.
+
+Usage: python scripts/compare_models.py --run A=runs/a.jsonl,runs/a_zs.json --run B=... \
+           [--draws 0,1] [--per-task erfb,goalfb] [--out FILE.json]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import sys
+from pathlib import Path
+from typing import Any
+
+from fbil.checkpoint import atomic_write_text
+from fbil.errors import FbilError
+
+
+def summarise(results: Path, draws: set[int] | None, per_task: list[str]) -> dict[str, Any]:
+    """Mean score (%) per method and overall, mean return per (method in per_task, task)."""
+    try:
+        rows = [json.loads(line) for line in results.read_text().splitlines() if line.strip()]
+    except (OSError, json.JSONDecodeError) as exc:
+        raise FbilError(f"{results}: cannot read results lines ({exc})") from None
+    rows = [r for r in rows if draws is None or r["draw"] in draws]
+    if not rows:
+        raise FbilError(f"{results}: no results lines for draws {sorted(draws or [])}")
+    methods = sorted({r["method"] for r in rows})
+    score = {m: 100 * statistics.mean(r["score"] for r in rows if r["method"] == m) for m in methods}
+    score["mean"] = 100 * statistics.mean(r["score"] for r in rows)
+    tasks = sorted({r["task"] for r in rows})
+    returns = {
+        m: {t: statistics.mean(r["return_mean"] for r in rows if r["method"] == m and r["task"] == t)
+            for t in tasks}
+        for m in per_task if m in methods
+    }
+    return {"jobs": len(rows), "score_pct": score, "returns": returns}
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--run", action="append", required=True, metavar="NAME=RESULTS[,ZERO_SHOT]")
+    p.add_argument("--draws", default="", help="comma list of demo draws to keep (all)")
+    p.add_argument("--per-task", default="erfb,goalfb", help="methods whose per-task returns to show")
+    p.add_argument("--out", default=None, help="write the comparison here (.json)")
+    args = p.parse_args(argv)
+    try:
+        draws = {int(d) for d in args.draws.split(",") if d.strip()} or None
+        per_task = [m.strip() for m in args.per_task.split(",") if m.strip()]
+        out: dict[str, Any] = {}
+        for run in args.run:
+            name, sep, files = run.partition("=")
+            if not sep or not name or not files:
+                raise FbilError(f"--run {run!r}: give NAME=RESULTS[,ZERO_SHOT]")
+            results, _, zero_shot = files.partition(",")
+            entry = summarise(Path(results), draws, per_task)
+            if zero_shot:
+                zs = json.loads(Path(zero_shot).read_text())
+                entry["zero_shot"] = {t: v["return_mean"] for t, v in zs["tasks"].items()}
+            out[name] = entry
+    except (FbilError, ValueError, KeyError, OSError) as exc:
+        print(f"compare_models: error: {exc}", file=sys.stderr)
+        return 2
+    names = list(out)
+    methods = sorted({m for e in out.values() for m in e["score_pct"]} - {"mean"}) + ["mean"]
+    print("score %".ljust(26) + "".join(n[:14].rjust(15) for n in names))
+    for m in methods:
+        print(f"  {m:24s}" + "".join(f"{out[n]['score_pct'].get(m, float('nan')):15.1f}" for n in names))
+    for key in ("zero_shot",):
+        tasks = sorted({t for e in out.values() for t in e.get(key, {})})
+        if tasks:
+            print("zero-shot return")
+            for t in tasks:
+                print(f"  {t:24s}" + "".join(f"{out[n].get(key, {}).get(t, float('nan')):15.1f}" for n in names))
+    for m in per_task:
+        tasks = sorted({t for e in out.values() for t in e["returns"].get(m, {})})
+        if tasks:
+            print(f"{m} return")
+            for t in tasks:
+                print(f"  {t:24s}" + "".join(f"{out[n]['returns'].get(m, {}).get(t, float('nan')):15.1f}" for n in names))
+    if args.out:
+        atomic_write_text(Path(args.out), json.dumps(out, indent=1) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
