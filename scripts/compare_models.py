@@ -34,13 +34,20 @@ def summarise(results: Path, draws: set[int] | None, per_task: list[str]) -> dic
     if not rows:
         raise FbilError(f"{results}: no results lines for draws {sorted(draws or [])}")
     methods = sorted({r["method"] for r in rows})
-    score = {m: 100 * statistics.mean(r["score"] for r in rows if r["method"] == m) for m in methods}
+    score = {
+        m: 100 * statistics.mean(r["score"] for r in rows if r["method"] == m) for m in methods
+    }
     score["mean"] = 100 * statistics.mean(r["score"] for r in rows)
     tasks = sorted({r["task"] for r in rows})
     returns = {
-        m: {t: statistics.mean(r["return_mean"] for r in rows if r["method"] == m and r["task"] == t)
-            for t in tasks}
-        for m in per_task if m in methods
+        m: {
+            t: statistics.mean(
+                r["return_mean"] for r in rows if r["method"] == m and r["task"] == t
+            )
+            for t in tasks
+        }
+        for m in per_task
+        if m in methods
     }
     return {"jobs": len(rows), "score_pct": score, "returns": returns}
 
@@ -49,7 +56,9 @@ def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--run", action="append", required=True, metavar="NAME=RESULTS[,ZERO_SHOT]")
     p.add_argument("--draws", default="", help="comma list of demo draws to keep (all)")
-    p.add_argument("--per-task", default="erfb,goalfb", help="methods whose per-task returns to show")
+    p.add_argument(
+        "--per-task", default="erfb,goalfb", help="methods whose per-task returns to show"
+    )
     p.add_argument("--out", default=None, help="write the comparison here (.json)")
     args = p.parse_args(argv)
     try:
@@ -70,22 +79,33 @@ def main(argv: list[str] | None = None) -> int:
         print(f"compare_models: error: {exc}", file=sys.stderr)
         return 2
     names = list(out)
-    methods = sorted({m for e in out.values() for m in e["score_pct"]} - {"mean"}) + ["mean"]
+    methods = [*sorted({m for e in out.values() for m in e["score_pct"]} - {"mean"}), "mean"]
     print("score %".ljust(26) + "".join(n[:14].rjust(15) for n in names))
     for m in methods:
-        print(f"  {m:24s}" + "".join(f"{out[n]['score_pct'].get(m, float('nan')):15.1f}" for n in names))
+        print(
+            f"  {m:24s}"
+            + "".join(f"{out[n]['score_pct'].get(m, float('nan')):15.1f}" for n in names)
+        )
     for key in ("zero_shot",):
         tasks = sorted({t for e in out.values() for t in e.get(key, {})})
         if tasks:
             print("zero-shot return")
             for t in tasks:
-                print(f"  {t:24s}" + "".join(f"{out[n].get(key, {}).get(t, float('nan')):15.1f}" for n in names))
+                print(
+                    f"  {t:24s}"
+                    + "".join(f"{out[n].get(key, {}).get(t, float('nan')):15.1f}" for n in names)
+                )
     for m in per_task:
         tasks = sorted({t for e in out.values() for t in e["returns"].get(m, {})})
         if tasks:
             print(f"{m} return")
             for t in tasks:
-                print(f"  {t:24s}" + "".join(f"{out[n]['returns'].get(m, {}).get(t, float('nan')):15.1f}" for n in names))
+                print(
+                    f"  {t:24s}"
+                    + "".join(
+                        f"{out[n]['returns'].get(m, {}).get(t, float('nan')):15.1f}" for n in names
+                    )
+                )
     if args.out:
         atomic_write_text(Path(args.out), json.dumps(out, indent=1) + "\n")
     return 0

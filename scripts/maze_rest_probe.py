@@ -109,9 +109,11 @@ def main() -> None:
                 "near goal, fast": model.project_z(b[near[speed[near] >= hi]].mean(0)),
             }
         out[task] = {}
-        print(f"{task} (goal {[round(float(g), 2) for g in goal]}; {len(near)} dataset states within "
-              f"3 cm, {int(sets['near & slow'].sum())} of them under 2 cm/s; speed terciles "
-              f"{100 * lo:.1f} / {100 * hi:.1f} cm/s)")
+        print(
+            f"{task} (goal {[round(float(g), 2) for g in goal]}; {len(near)} dataset states within "
+            f"3 cm, {int(sets['near & slow'].sum())} of them under 2 cm/s; speed terciles "
+            f"{100 * lo:.1f} / {100 * hi:.1f} cm/s)"
+        )
         out[task]["counts"] = {k: int(m.sum()) for k, m in sets.items()}  # type: ignore[assignment]
         for name in NAMES:
             z = zs[name]
@@ -129,10 +131,13 @@ def main() -> None:
             }
             out[task][name] = row
             e, k, c = row["end"], row["peak"], row["contrast"]
-            print(f"  {name:16s} return {row['return']:6.1f}  cos {row['cos']:5.2f}  "
-                  f"end {e['dist_cm']:5.1f} cm {e['speed_cms']:5.2f} cm/s wall {e['wall_share']:.2f}"
-                  f"  peak {k['dist_cm']:5.1f} cm {k['speed_cms']:5.2f} cm/s wall {k['wall_share']:.2f}"
-                  f"  contrast {c['near']:+.2f} / {c['near & slow']:+.2f} / {c['far rest']:+.2f}")
+            print(
+                f"  {name:16s} return {row['return']:6.1f}  cos {row['cos']:5.2f}  "
+                f"end {e['dist_cm']:5.1f} cm {e['speed_cms']:5.2f} cm/s wall {e['wall_share']:.2f}"
+                f"  peak {k['dist_cm']:5.1f} cm {k['speed_cms']:5.2f} cm/s"
+                f" wall {k['wall_share']:.2f}"
+                f"  contrast {c['near']:+.2f} / {c['near & slow']:+.2f} / {c['far rest']:+.2f}"
+            )
     if args.json:
         Path(args.json).write_text(json.dumps(out, indent=1) + "\n")
 

@@ -28,8 +28,12 @@ def _run(*args: str) -> subprocess.CompletedProcess[str]:
 def test_scores_per_method_on_the_kept_draws(tmp_path: Path) -> None:
     a = _lines(
         tmp_path / "a.jsonl",
-        [("erfb", "loop", 0, 0.5, 500.0), ("erfb", "loop", 1, 0.7, 700.0),
-         ("goalfb", "loop", 0, 0.1, 100.0), ("erfb", "loop", 2, 0.0, 0.0)],
+        [
+            ("erfb", "loop", 0, 0.5, 500.0),
+            ("erfb", "loop", 1, 0.7, 700.0),
+            ("goalfb", "loop", 0, 0.1, 100.0),
+            ("erfb", "loop", 2, 0.0, 0.0),
+        ],
     )
     zs = tmp_path / "zs.json"
     zs.write_text(json.dumps({"tasks": {"loop": {"return_mean": 812.5, "return_std": 1.0}}}))
