@@ -52,6 +52,19 @@ def summarise(results: Path, draws: set[int] | None, per_task: list[str]) -> dic
     return {"jobs": len(rows), "score_pct": score, "returns": returns}
 
 
+def print_table(title: str, columns: dict[str, dict[str, float]]) -> None:
+    """One column per model, one row per key any model has ("mean" last); nothing if empty."""
+    keys = sorted({k for col in columns.values() for k in col} - {"mean"})
+    keys += ["mean"] if any("mean" in col for col in columns.values()) else []
+    if not keys:
+        return
+    print(title.ljust(26) + "".join(n[:14].rjust(15) for n in columns))
+    for k in keys:
+        print(
+            f"  {k:24s}" + "".join(f"{col.get(k, float('nan')):15.1f}" for col in columns.values())
+        )
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--run", action="append", required=True, metavar="NAME=RESULTS[,ZERO_SHOT]")
@@ -78,34 +91,10 @@ def main(argv: list[str] | None = None) -> int:
     except (FbilError, ValueError, KeyError, OSError) as exc:
         print(f"compare_models: error: {exc}", file=sys.stderr)
         return 2
-    names = list(out)
-    methods = [*sorted({m for e in out.values() for m in e["score_pct"]} - {"mean"}), "mean"]
-    print("score %".ljust(26) + "".join(n[:14].rjust(15) for n in names))
-    for m in methods:
-        print(
-            f"  {m:24s}"
-            + "".join(f"{out[n]['score_pct'].get(m, float('nan')):15.1f}" for n in names)
-        )
-    for key in ("zero_shot",):
-        tasks = sorted({t for e in out.values() for t in e.get(key, {})})
-        if tasks:
-            print("zero-shot return")
-            for t in tasks:
-                print(
-                    f"  {t:24s}"
-                    + "".join(f"{out[n].get(key, {}).get(t, float('nan')):15.1f}" for n in names)
-                )
+    print_table("score %", {n: e["score_pct"] for n, e in out.items()})
+    print_table("zero-shot return", {n: e.get("zero_shot", {}) for n, e in out.items()})
     for m in per_task:
-        tasks = sorted({t for e in out.values() for t in e["returns"].get(m, {})})
-        if tasks:
-            print(f"{m} return")
-            for t in tasks:
-                print(
-                    f"  {t:24s}"
-                    + "".join(
-                        f"{out[n]['returns'].get(m, {}).get(t, float('nan')):15.1f}" for n in names
-                    )
-                )
+        print_table(f"{m} return", {n: e["returns"].get(m, {}) for n, e in out.items()})
     if args.out:
         atomic_write_text(Path(args.out), json.dumps(out, indent=1) + "\n")
     return 0

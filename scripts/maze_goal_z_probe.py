@@ -47,11 +47,10 @@ def goal_zs(model: FBModel, goal: np.ndarray, velocities: np.ndarray) -> dict[st
 def resting_states(states: np.ndarray, speed: float = 1e-3, margin: float = 0.01) -> str:
     """Share of states at rest, and of those, the share within `margin` of a wall."""
     rest = states[np.linalg.norm(states[:, 2:], axis=1) < speed, :2]
-    outer = (np.abs(rest) > maze.JOINT_LIMIT - maze.MASS_RADIUS - margin).any(1)
-    inner = maze.in_inner_wall(rest, maze.MASS_RADIUS + margin, maze.MASS_RADIUS + margin)
+    at_wall = 100 * float(maze.near_wall(rest, margin).mean())
     return (
         f"dataset states at rest (speed < {speed}): {100 * len(rest) / len(states):.1f} %, "
-        f"of which {100 * float((outer | inner).mean()):.1f} % within {100 * margin:.0f} cm "
+        f"of which {at_wall:.1f} % within {100 * margin:.0f} cm "
         "of a wall"
     )
 

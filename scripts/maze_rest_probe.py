@@ -46,20 +46,12 @@ TASKS = ("reach_top_left", "reach_top_right", "reach_bottom_left", "reach_bottom
 NAMES = ("z_r", "ERFB", "B(goal, rest)", "near goal, slow", "near goal, fast")
 
 
-def at_wall(pos: np.ndarray, margin: float = 0.01) -> np.ndarray:
-    """Whether each position (N, 2) lies within `margin` of the outer or the inner walls."""
-    lim = maze.JOINT_LIMIT - maze.MASS_RADIUS - margin
-    outer = (np.abs(pos) > lim).any(1)
-    r = maze.MASS_RADIUS + margin
-    return np.asarray(outer | maze.in_inner_wall(pos, r, r))
-
-
 def describe(pos: np.ndarray, vel: np.ndarray, goal: np.ndarray) -> dict[str, float]:
     """Mean distance to the goal and speed (cm, cm/s), and the share of states at a wall."""
     return {
         "dist_cm": round(100 * float(np.linalg.norm(pos - goal, axis=1).mean()), 1),
         "speed_cms": round(100 * float(np.linalg.norm(vel, axis=1).mean()), 2),
-        "wall_share": round(float(at_wall(pos).mean()), 2),
+        "wall_share": round(float(maze.near_wall(pos, 0.01).mean()), 2),
     }
 
 
@@ -82,7 +74,7 @@ def main() -> None:
     nxt = data.observation[data.next_index]
     pos, vel = nxt[:, :2], nxt[:, 2:]
     speed = np.linalg.norm(vel, axis=1)
-    wall = at_wall(pos)
+    wall = maze.near_wall(pos, 0.01)
     seeds = [10_000 + i for i in range(args.episodes)]
     out: dict[str, dict[str, dict[str, object]]] = {}
     for task in TASKS:

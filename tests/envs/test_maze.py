@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from fbil.envs import get_task, make_env, task_reward
-from fbil.envs.maze import ROOMS, room_of
+from fbil.envs.maze import ROOMS, near_wall, room_of
 
 
 def _push(start: tuple[float, float], action: tuple[float, float], steps: int = 300) -> np.ndarray:
@@ -100,3 +100,18 @@ def test_reach_long_rewards_clockwise_and_punishes_the_short_way() -> None:
     assert cw == pytest.approx(0.5) and ccw == pytest.approx(-10.0)
     goal = task_reward("point_mass_maze", "reach_bottom_left_long", _q([-0.15, -0.15], [0, 0]))
     assert goal[0] == pytest.approx(1.0)
+
+
+def test_near_wall_marks_the_outer_walls_and_the_plus_only() -> None:
+    xy = np.array(
+        [
+            [0.285, 0.15],  # against the right wall (joint limit 0.29)
+            [-0.15, -0.285],  # against the bottom wall
+            [0.031, 0.10],  # touching the "+" arm's side (half thickness 0.02 + radius 0.01)
+            [0.10, 0.031],  # touching the other arm
+            [-0.15, 0.15],  # open floor, a room's centre
+            [0.24, 0.0],  # a doorway, 0.06 past the arm's end
+        ]
+    )
+    assert near_wall(xy, 0.01).tolist() == [True, True, True, True, False, False]
+    assert not near_wall(xy[2:4], 0.0).any()  # 1 mm from the arm: outside a zero margin

@@ -29,6 +29,7 @@ from fbil.envs.maze_geometry import START_HIGH as START_HIGH
 from fbil.envs.maze_geometry import START_LOW as START_LOW
 from fbil.envs.maze_geometry import WALL_HALF_THICKNESS as WALL_HALF_THICKNESS
 from fbil.envs.maze_geometry import in_inner_wall as in_inner_wall
+from fbil.envs.maze_geometry import near_wall as near_wall
 from fbil.envs.maze_geometry import random_free_positions as random_free_positions
 from fbil.envs.maze_geometry import room_of as room_of
 

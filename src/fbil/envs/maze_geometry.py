@@ -30,6 +30,14 @@ def in_inner_wall(xy: np.ndarray, thick_margin: float, length_margin: float) -> 
     return ((ax < thick) & (ay < arm)) | ((ay < thick) & (ax < arm))
 
 
+def near_wall(xy: np.ndarray, margin: float) -> np.ndarray:
+    """True for each (..., 2) position of the mass whose rim lies within `margin` of a wall
+    (the outer walls or the "+")."""
+    outer = (np.abs(xy) > JOINT_LIMIT - MASS_RADIUS - margin).any(-1)
+    r = MASS_RADIUS + margin
+    return np.asarray(outer | in_inner_wall(xy, r, r))
+
+
 def random_free_positions(rng: np.random.Generator, n: int) -> np.ndarray:
     """(n, 2) positions uniform over the free floor of all four rooms (walls excluded)."""
     margin = MASS_RADIUS + 0.005
