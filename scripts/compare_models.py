@@ -4,11 +4,13 @@ Each `--run NAME=RESULTS[,ZERO_SHOT]` names the results file of `fbil benchmark 
 for one model and, optionally, the `--json` output of `fbil zero-shot M ...`. Prints, per
 model, the mean imitation score (%) of each method and of all methods, the zero-shot
 returns, and the mean return per task of the methods in --per-task; writes them with --out.
-Lines are kept only for the demo draws in --draws (all by default), so models evaluated on
-different numbers of draws can be compared on the draws they share.
+Lines are kept only for the demo draws in --draws, the tasks in --tasks and the methods in
+--methods (all by default), so models evaluated on different grids can be compared on the
+jobs they share.
 
 Usage: python scripts/compare_models.py --run A=runs/a.jsonl,runs/a_zs.json --run B=... \
-           [--draws 0,1] [--per-task erfb,goalfb] [--out FILE.json]
+           [--draws 0,1] [--tasks t1,t2] [--methods m1,m2] [--per-task erfb,goalfb]
+           [--out FILE.json]
 """
 
 from __future__ import annotations
@@ -24,15 +26,28 @@ from fbil.checkpoint import atomic_write_text
 from fbil.errors import FbilError
 
 
-def summarise(results: Path, draws: set[int] | None, per_task: list[str]) -> dict[str, Any]:
-    """Mean score (%) per method and overall, mean return per (method in per_task, task)."""
+def summarise(
+    results: Path,
+    draws: set[int] | None,
+    per_task: list[str],
+    tasks: set[str] | None = None,
+    methods: set[str] | None = None,
+) -> dict[str, Any]:
+    """Mean score (%) per method and overall, mean return per (method in per_task, task), over
+    the lines of the chosen draws, tasks and methods (None: all)."""
     try:
         rows = [json.loads(line) for line in results.read_text().splitlines() if line.strip()]
     except (OSError, json.JSONDecodeError) as exc:
         raise FbilError(f"{results}: cannot read results lines ({exc})") from None
-    rows = [r for r in rows if draws is None or r["draw"] in draws]
+    rows = [
+        r
+        for r in rows
+        if (draws is None or r["draw"] in draws)
+        and (tasks is None or r["task"] in tasks)
+        and (methods is None or r["method"] in methods)
+    ]
     if not rows:
-        raise FbilError(f"{results}: no results lines for draws {sorted(draws or [])}")
+        raise FbilError(f"{results}: no results lines for the chosen draws, tasks and methods")
     methods = sorted({r["method"] for r in rows})
     score = {
         m: 100 * statistics.mean(r["score"] for r in rows if r["method"] == m) for m in methods
@@ -69,6 +84,8 @@ def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--run", action="append", required=True, metavar="NAME=RESULTS[,ZERO_SHOT]")
     p.add_argument("--draws", default="", help="comma list of demo draws to keep (all)")
+    p.add_argument("--tasks", default="", help="comma list of tasks to keep (all)")
+    p.add_argument("--methods", default="", help="comma list of methods to keep (all)")
     p.add_argument(
         "--per-task", default="erfb,goalfb", help="methods whose per-task returns to show"
     )
@@ -77,13 +94,15 @@ def main(argv: list[str] | None = None) -> int:
     try:
         draws = {int(d) for d in args.draws.split(",") if d.strip()} or None
         per_task = [m.strip() for m in args.per_task.split(",") if m.strip()]
+        tasks = {t.strip() for t in args.tasks.split(",") if t.strip()} or None
+        methods = {m.strip() for m in args.methods.split(",") if m.strip()} or None
         out: dict[str, Any] = {}
         for run in args.run:
             name, sep, files = run.partition("=")
             if not sep or not name or not files:
                 raise FbilError(f"--run {run!r}: give NAME=RESULTS[,ZERO_SHOT]")
             results, _, zero_shot = files.partition(",")
-            entry = summarise(Path(results), draws, per_task)
+            entry = summarise(Path(results), draws, per_task, tasks, methods)
             if zero_shot:
                 zs = json.loads(Path(zero_shot).read_text())
                 entry["zero_shot"] = {t: v["return_mean"] for t, v in zs["tasks"].items()}

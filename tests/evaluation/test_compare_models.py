@@ -52,3 +52,21 @@ def test_missing_results_file_is_one_line_exit_2(tmp_path: Path) -> None:
     proc = _run("--run", f"A={tmp_path / 'none.jsonl'}")
     assert proc.returncode == 2
     assert proc.stderr.strip().count("\n") == 0 and "none.jsonl" in proc.stderr
+
+
+def test_tasks_and_methods_filters(tmp_path: Path) -> None:
+    a = _lines(
+        tmp_path / "a.jsonl",
+        [
+            ("erfb", "loop", 0, 0.5, 500.0),
+            ("erfb", "square", 0, 0.9, 900.0),
+            ("goalfb", "loop", 0, 0.1, 100.0),
+        ],
+    )
+    out = tmp_path / "cmp.json"
+    proc = _run("--run", f"A={a}", "--tasks", "loop", "--methods", "erfb", "--out", str(out))
+    assert proc.returncode == 0, proc.stderr
+    got = json.loads(out.read_text())["A"]
+    assert got["jobs"] == 1 and got["score_pct"] == {"erfb": 50.0, "mean": 50.0}
+    proc = _run("--run", f"A={a}", "--tasks", "fast_slow")
+    assert proc.returncode == 2 and proc.stderr.strip().count("\n") == 0
