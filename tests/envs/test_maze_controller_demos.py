@@ -3,7 +3,6 @@ rests there, its files load as demos, and it refuses tasks it has no route for."
 
 from __future__ import annotations
 
-import importlib.util
 from pathlib import Path
 
 import numpy as np
@@ -11,16 +10,11 @@ import pytest
 
 from fbil.envs import maze
 from fbil.imitation.demos import Demos
-
-SCRIPT = Path(__file__).resolve().parents[2] / "scripts" / "maze_controller_demos.py"
+from tests.script_module import load_script
 
 
 def _module():  # type: ignore[no-untyped-def]
-    spec = importlib.util.spec_from_file_location("maze_controller_demos", SCRIPT)
-    assert spec and spec.loader
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return load_script("maze_controller_demos")
 
 
 @pytest.mark.parametrize("task", ["reach_top_left", "reach_bottom_right"])

@@ -3,7 +3,6 @@ and the CLI's JSON."""
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import subprocess
 import sys
@@ -15,16 +14,13 @@ import torch
 
 from fbil.data import load_dataset
 from fbil.fb.model import FBModel
+from tests.script_module import load_script
 
 SCRIPT = Path(__file__).resolve().parents[2] / "scripts" / "fb_diagnostics.py"
 
 
 def _module():  # type: ignore[no-untyped-def]
-    spec = importlib.util.spec_from_file_location("fb_diagnostics", SCRIPT)
-    assert spec and spec.loader
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return load_script("fb_diagnostics")
 
 
 def test_reference_mass_and_reward_fit(smoke_model_dir: Path, fixture_data: Path) -> None:
