@@ -21,7 +21,7 @@ import numpy as np
 
 from fbil.envs.rollout import BatchedEnv
 from fbil.errors import FbilError
-from fbil.imitation.demos import Demos, Trajectory
+from fbil.imitation.demos import Demos, from_episodes
 
 DOOR = 0.24  # doorway centres: (0, +-DOOR) and (+-DOOR, 0)
 # Shortest route from the top-left (start) room to each goal, as waypoints.
@@ -68,21 +68,14 @@ def controller_demos(task: str, episodes: int, seed: int) -> Demos:
     seeds = [seed * 1_000_003 + 300_000 + i for i in range(episodes)]
     env = BatchedEnv("point_mass_maze", task, episodes)
     ep = env.rollout(WaypointController(ROUTES[task], episodes), seeds)
-    trajs = [
-        Trajectory(ep.observation[i], ep.action[i], ep.reward[i].astype(np.float32), ep.physics[i])
-        for i in range(episodes)
-    ]
-    return Demos(
-        trajs,
+    return from_episodes(
+        ep,
         {
             "domain": "point_mass_maze",
             "task": task,
             "source": "hand-written waypoint PD controller (scripts/maze_controller_demos.py)",
             "start": "standard",
             "seed": seed,
-            "returns": ep.returns.tolist(),
-            "return_mean": float(ep.returns.mean()),
-            "return_std": float(ep.returns.std()),
         },
     )
 

@@ -26,7 +26,7 @@ from fbil.csvlog import last_wall_seconds, truncate_log
 from fbil.data import load_dataset
 from fbil.envs import BatchedEnv, DomainSpec, get_domain, get_task
 from fbil.errors import FbilError
-from fbil.imitation.demos import Demos, Trajectory
+from fbil.imitation.demos import Demos, from_episodes
 from fbil.progress import progress_bar
 
 CHECKPOINT, EXPERT, LOG = "checkpoint.safetensors", "expert.json", "train_log.csv"
@@ -508,21 +508,14 @@ def make_demos(
     seeds = [seed * 1_000_003 + 200_000 + i for i in range(episodes)]
     starts = shifted_starts(domain, agent, task, seeds) if start == "shifted" else None
     ep = BatchedEnv(domain, task, episodes).rollout(ExpertPolicy(agent), seeds, start_states=starts)
-    trajs = [
-        Trajectory(ep.observation[i], ep.action[i], ep.reward[i].astype(np.float32), ep.physics[i])
-        for i in range(episodes)
-    ]
-    demos = Demos(
-        trajs,
+    demos = from_episodes(
+        ep,
         {
             "domain": domain,
             "task": task,
             "source": f"TD3 expert {Path(expert_dir).name}",
             "start": start,
             "seed": seed,
-            "returns": ep.returns.tolist(),
-            "return_mean": float(ep.returns.mean()),
-            "return_std": float(ep.returns.std()),
         },
     )
     demos.save(out)

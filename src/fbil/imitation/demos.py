@@ -161,6 +161,25 @@ def from_arrays(
     return Demos(trajs, dict(metadata or {})).validate()
 
 
+def from_episodes(ep: Any, metadata: dict[str, Any]) -> Demos:
+    """One demo per episode of a `BatchedEnv.rollout` result (`fbil.envs.Episodes`), with
+    `metadata` plus the episodes' returns, their mean and standard deviation."""
+    trajs = [
+        Trajectory(ep.observation[i], ep.action[i], ep.reward[i].astype(np.float32), ep.physics[i])
+        for i in range(len(ep.returns))
+    ]
+    returns = np.asarray(ep.returns)
+    return Demos(
+        trajs,
+        {
+            **metadata,
+            "returns": returns.tolist(),
+            "return_mean": float(returns.mean()),
+            "return_std": float(returns.std()),
+        },
+    )
+
+
 def from_imitation(trajectories: Sequence[Any], metadata: dict[str, Any] | None = None) -> Demos:
     """Demos from the `imitation` library's Trajectory objects (fields obs, acts)."""
     return from_arrays(
