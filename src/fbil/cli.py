@@ -1017,9 +1017,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except FbilError as exc:
         print(f"fbil: error: {exc}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print("fbil: interrupted", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as exc:  # a training run's TrainingStopped says where it saved
+        print(f"fbil: {exc}" if str(exc) else "fbil: interrupted", file=sys.stderr)
+        return int(getattr(exc, "exit_code", 130))
     except BrokenPipeError:  # e.g. `fbil tasks | head`
         sys.stderr.close()
         return 0

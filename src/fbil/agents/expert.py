@@ -28,6 +28,7 @@ from fbil.envs import BatchedEnv, DomainSpec, get_domain, get_task
 from fbil.errors import FbilError
 from fbil.imitation.demos import Demos, from_episodes
 from fbil.progress import progress_bar
+from fbil.stopping import StopSignals
 
 CHECKPOINT, EXPERT, LOG = "checkpoint.safetensors", "expert.json", "train_log.csv"
 # The best actor seen at the periodic evaluations: offline TD3's return oscillates between
@@ -89,8 +90,13 @@ def train_expert(
     if resume and learner_state:
         learner.load(learner_state)
     run = _Run(out, domain, task, seed, eval_episodes, cfg, agent, learner)
-    step, best = _train_loop(run, step, steps, eval_every, checkpoint_seconds, resume, progress)
+    with StopSignals() as stop:
+        step, best = _train_loop(
+            run, step, steps, eval_every, checkpoint_seconds, resume, progress, stop
+        )
     run.save_checkpoint(step)
+    if stop:
+        raise stop.stopped(out, step)
     returns = run.evaluate()
     _keep_if_best(out, agent, step, float(returns.mean()), best)  # the last one counts too
     return _write_meta(run, mode, step, data, returns, command)
@@ -183,9 +189,11 @@ def _train_loop(
     checkpoint_seconds: float,
     resume: bool,
     progress: bool,
+    stop: StopSignals,
 ) -> tuple[int, float | None]:
-    """Learner steps up to `steps`, evaluating (CSV log, best actor) every `eval_every`
-    and checkpointing every `checkpoint_seconds`; the last step and the best return."""
+    """Learner steps up to `steps` (or a stop signal), evaluating (CSV log, best actor)
+    every `eval_every` and checkpointing every `checkpoint_seconds`; the last step and the
+    best return."""
     log, best_path = run.out / LOG, run.out / BEST
     if resume:
         truncate_log(log, step, LOG_FIELDS)
@@ -201,7 +209,7 @@ def _train_loop(
         bar = progress_bar(
             total=steps, initial=step, disable=not progress, desc=f"expert {run.task}"
         )
-        while step < steps:
+        while step < steps and not stop:
             last = run.learner.step() or last
             step += 1
             if step % eval_every == 0 or step == steps:

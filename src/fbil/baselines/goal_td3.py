@@ -38,6 +38,7 @@ from fbil.errors import FbilError
 from fbil.imitation.demos import Demos
 from fbil.imitators.base import FitContext, Imitator
 from fbil.progress import progress_bar
+from fbil.stopping import StopSignals
 
 CHECKPOINT, LOG = "goal_checkpoint.safetensors", "goal_train_log.csv"
 LOG_FIELDS = ("step", "critic_loss", "q", "reward_mean", "steps_per_s", "wall_seconds")
@@ -245,8 +246,11 @@ class GoalTD3Trainer:
         save the goal model in `out`."""
         out = Path(out)
         self._open_run(out, resume)
-        wall = self._loop(out, progress, last_wall_seconds(out / LOG))
+        with StopSignals() as stop:
+            wall = self._loop(out, progress, last_wall_seconds(out / LOG), stop)
         save_state(out / CHECKPOINT, self.state())
+        if stop:
+            raise stop.stopped(out, self.step)
         extra = {"steps": self.step, "dataset": str(self.dataset.root), "wall_seconds": wall}
         self.model().save(out, {**extra, "train_config": dataclasses.asdict(self.cfg)})
         return GoalModel.load(out)
@@ -262,7 +266,7 @@ class GoalTD3Trainer:
             raise FbilError(f"{out} already holds a goal model: pass --resume or another --out")
         out.mkdir(parents=True, exist_ok=True)
 
-    def _loop(self, out: Path, progress: bool, wall_before: float) -> float:
+    def _loop(self, out: Path, progress: bool, wall_before: float, stop: StopSignals) -> float:
         log, cfg = out / LOG, self.cfg
         new_log = not log.exists()
         started = last_ckpt = last_log = time.perf_counter()
@@ -274,7 +278,7 @@ class GoalTD3Trainer:
             writer = csv.DictWriter(fh, LOG_FIELDS, extrasaction="ignore")
             if new_log:
                 writer.writeheader()
-            while self.step < cfg.steps:
+            while self.step < cfg.steps and not stop:
                 metrics = self.update()
                 now = time.perf_counter()
                 if self.step % cfg.log_every == 0 or self.step == cfg.steps:

@@ -46,6 +46,7 @@ from fbil.errors import FbilError
 from fbil.fb.config import FBModelConfig, FBTrainConfig
 from fbil.fb.model import CONFIG, FBModel
 from fbil.progress import progress_bar
+from fbil.stopping import StopSignals
 
 CHECKPOINT, LOG = "checkpoint.safetensors", "train_log.csv"
 LOG_FIELDS = (
@@ -478,10 +479,13 @@ class FBTrainer:
                 desc="pretrain",
                 unit="step",
             )
-            wall = self._loop(out, fh, writer, bar, manifest, wall_before)
-            bar.close()
+            with StopSignals() as stop:
+                wall = self._loop(out, fh, writer, bar, manifest, wall_before, stop)
+                bar.close()
         save_state(out / CHECKPOINT, self.state())
         self._save_model(out, manifest, wall)
+        if stop:
+            raise stop.stopped(out, self.step)
         return FBModel.load(out)
 
     def _open_run(self, out: Path, resume: bool) -> None:
@@ -509,11 +513,13 @@ class FBTrainer:
         bar: Any,
         manifest: dict[str, Any] | None,
         wall_before: float,
+        stop: StopSignals,
     ) -> float:
-        """Updates until cfg.steps: log rows, snapshots, timed checkpoints; the wall time."""
+        """Updates until cfg.steps (or a stop signal): log rows, snapshots, timed
+        checkpoints; the wall time."""
         started = last_ckpt = last_log = time.perf_counter()
         steps_at_log = self.step
-        while self.step < self.cfg.steps:
+        while self.step < self.cfg.steps and not stop:
             metrics = self.update()
             now = time.perf_counter()
             wall = wall_before + now - started
