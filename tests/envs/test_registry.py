@@ -50,3 +50,38 @@ def test_unknown_names_list_the_valid_ones() -> None:
         get_task("walker", "backflip")
     with pytest.raises(FbilError, match="unknown task"):
         make_env("cheetah", "stand")
+
+
+@pytest.mark.parametrize(("domain", "task"), all_tasks())
+def test_no_state_or_control_pays_more_than_reward_max(domain: str, task: str) -> None:
+    """reward_max bounds one step's reward for any state and control: rows drawn at scales
+    from the maze's 0.3 m to far beyond any speed or height the physics reaches; only the
+    quantities bounded by nature stay in [-1, 1] (an upright cosine, an applied control)."""
+    import numpy as np
+
+    from fbil.envs import max_return
+
+    spec, rng, n = get_domain(domain), np.random.default_rng(0), 20_000
+    scale = rng.choice([0.05, 0.3, 1.0, 3.0, 10.0, 100.0], size=n)
+    quantities = {
+        name: rng.uniform(-1, 1, (n, *shape)) * scale.reshape(-1, *[1] * len(shape))
+        for name, shape in spec.quantity_shapes.items()
+    }
+    for name in {"torso_upright", "control"} & set(quantities):
+        quantities[name] = np.clip(quantities[name], -1, 1)
+    reward = np.asarray(get_task(domain, task).reward(quantities))
+    assert reward.shape == (n,) and np.isfinite(reward).all()
+    assert reward.max() <= get_task(domain, task).reward_max + 1e-12
+    assert max_return(domain, task) == get_task(domain, task).reward_max * spec.episode_length
+
+
+def test_the_maze_bound_is_reached_at_a_goal_at_rest() -> None:
+    """reward_max is not slack: at the goal, still and without control, reach pays 1."""
+    import numpy as np
+
+    from fbil.envs import max_return
+
+    task = get_task("point_mass_maze", "reach_bottom_left_long")
+    at_rest = {"position": np.array([[-0.15, -0.15]]), "velocity": np.zeros((1, 2))}
+    assert task.reward({**at_rest, "control": np.zeros((1, 2))})[0] == task.reward_max == 1.0
+    assert max_return("point_mass_maze", "reach_bottom_left_long") == 1000.0

@@ -17,6 +17,8 @@ from fbil.evaluation.paper import (
     PAPER_SCORES,
     PAPER_TIMES,
     PRINCIPLE_CLASSES,
+    above_max_return,
+    paper_score,
     paper_seconds,
     principle_class,
 )
@@ -83,3 +85,31 @@ def test_each_registered_principle_falls_in_one_of_the_papers_classes() -> None:
         assert principle_class(imitator.principle) in classes, name
     assert principle_class("Bellman gap (B*)") == "FM/DM"
     assert principle_class("reward (0/1 labels)") == "reward"
+
+
+def test_only_two_paper_returns_exceed_what_any_policy_can_return() -> None:
+    """Every reward here pays at most 1 per step over 1000 steps; the paper's SMODICE and
+    LobsDICE figures on reach_bottom_left_long are above that, and no other figure is."""
+    found = {d: above_max_return(d) for d in PAPER_RETURNS}
+    assert found == {
+        "point_mass_maze": {
+            "smodice": {"reach_bottom_left_long": 1340.2},
+            "lobsdice": {"reach_bottom_left_long": 2048.2},
+        },
+        "walker": {},
+        "cheetah": {},
+        "quadruped": {},
+    }
+
+
+def test_the_paper_score_over_some_tasks() -> None:
+    tasks = get_domain("point_mass_maze").task_names
+    assert paper_score("point_mass_maze", "smodice", tasks) == pytest.approx(42.7, abs=0.05)
+    kept = [t for t in tasks if t != "reach_bottom_left_long"]
+    returns, expert = (
+        PAPER_RETURNS["point_mass_maze"]["smodice"],
+        PAPER_RETURNS["point_mass_maze"]["expert"],
+    )
+    by_hand = 100 * sum(returns[t] / expert[t] for t in kept) / 7
+    assert paper_score("point_mass_maze", "smodice", kept) == pytest.approx(by_hand)
+    assert 19 < by_hand < 21  # the other seven tasks alone: about 20 %, not 42.7

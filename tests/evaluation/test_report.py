@@ -158,3 +158,19 @@ def test_budgets_of_one_method_must_agree_across_files_and_domains(tmp_path: Pat
     mixed = _write(tmp_path / "mixed.jsonl", _maze_rows() + walker_rows)
     with pytest.raises(FbilError, match="mix domains"):
         write_report(mixed, tmp_path / "report")
+
+
+def test_a_paper_figure_no_policy_can_reach_is_marked_and_left_out(tmp_path: Path) -> None:
+    """Table 5's SMODICE return on reach_bottom_left_long (1 340.2) is above the task's
+    1 000: the returns table marks it, and SMODICE is compared on the other tasks too."""
+    smodice = {"reach_bottom_left_long": (-0.9, -1.1), "loop": (0.3, 0.5), "square": (0.2, 0.2)}
+    rows = _maze_rows() + _rows("point_mass_maze", "smodice", smodice, (500.0,) * 6)
+    text = write_report(_write(tmp_path / "maze.jsonl", rows), tmp_path / "report").read_text()
+    assert "(1340.2†)" in text and "## Paper figures above a task's maximum return" in text
+    # Paper on loop and square: (442.7 / 912.4 + 296.7 / 952.9) / 2; ours (40 + 20) / 2.
+    paper = 100 * (442.7 / 912.4 + 296.7 / 952.9) / 2
+    row = f"| smodice | reach_bottom_left_long: 1340.2 (1000) | -100.0 | {paper:.1f} | 30.0 |"
+    assert row in text
+    # Without such a method in the results there is no such section.
+    plain = write_report(_write(tmp_path / "plain.jsonl", _maze_rows()), tmp_path / "plain")
+    assert "maximum return" not in plain.read_text()

@@ -10,7 +10,7 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 
 from fbil.envs.base import DomainSpec, TaskSpec
 from fbil.envs.env import FbilEnv, make_env
-from fbil.envs.registry import DOMAINS, all_tasks, get_domain, get_task
+from fbil.envs.registry import DOMAINS, all_tasks, get_domain, get_task, max_return
 from fbil.envs.relabel import compute_quantities, relabel, task_reward
 from fbil.envs.rollout import BatchedEnv, Episodes, Policy, RandomPolicy, rollout
 
@@ -28,6 +28,7 @@ __all__ = [
     "get_domain",
     "get_task",
     "make_env",
+    "max_return",
     "relabel",
     "rollout",
     "task_reward",

@@ -37,6 +37,10 @@ class TaskSpec:
     # Only for pictures of the maze: the goal and the route the reward asks for.
     goal: tuple[float, float] | None = None
     path: tuple[tuple[float, float], ...] | None = None
+    # An upper bound of the reward of one step, for any state and control (every task here
+    # is a product or mean of tolerances in [0, 1]; tested on random quantities). Times the
+    # episode length it bounds any policy's return: `fbil.envs.max_return`.
+    reward_max: float = 1.0
 
 
 @dataclass(frozen=True)

@@ -31,3 +31,9 @@ def get_task(domain: str, task: str) -> TaskSpec:
 def all_tasks() -> list[tuple[str, str]]:
     """Every (domain, task) pair, in registry order."""
     return [(d.name, t) for d in DOMAINS.values() for t in d.tasks]
+
+
+def max_return(domain: str, task: str) -> float:
+    """The most any policy can return in one episode of `task`: the per-step bound of its
+    reward times the episode length. A figure above it cannot come from this reward."""
+    return get_task(domain, task).reward_max * get_domain(domain).episode_length

@@ -10,6 +10,8 @@ the returns against the JSON when it is on the machine. Times to policy: Table 8
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+
 MAZE_TASKS = (
     "fast_slow",
     "loop",
@@ -198,6 +200,32 @@ PAPER_SCORES: dict[str, dict[str, float]] = {
     domain: {method: row[i] for method, row in _SCORE_ROWS.items()}
     for i, domain in enumerate(_SCORE_DOMAINS)
 }
+
+
+def above_max_return(domain: str) -> dict[str, dict[str, float]]:
+    """The paper's returns above what any policy can return on the task (the per-step bound
+    of its reward times the episode length, `fbil.envs.max_return`): {method: {task:
+    return}}. Such a figure cannot come from the task's reward as the reference code
+    defines it (maze: SMODICE's and LobsDICE's reach_bottom_left_long, 1 340.2 and 2 048.2
+    against a bound of 1 000), so it cannot be a target either."""
+    from fbil.envs import max_return
+
+    out: dict[str, dict[str, float]] = {}
+    for method, row in PAPER_RETURNS.get(domain, {}).items():
+        for task, value in row.items():
+            if value > max_return(domain, task):
+                out.setdefault(method, {})[task] = value
+    return out
+
+
+def paper_score(domain: str, method: str, tasks: Iterable[str]) -> float:
+    """The paper's mean imitation score (%) of `method` over `tasks` only: the mean of its
+    return over the paper's expert return per task (PAPER_SCORES over all of a domain's
+    tasks, unrounded)."""
+    returns, expert = PAPER_RETURNS[domain][method], PAPER_RETURNS[domain]["expert"]
+    chosen = list(tasks)
+    return 100 * sum(returns[t] / expert[t] for t in chosen) / len(chosen)
+
 
 # Table 8 ("Average time for generating an imitation learning policy once provided a set
 # expert demonstrations"), on the paper's GPUs, averaged over environments, as the paper

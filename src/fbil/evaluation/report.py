@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from fbil.checkpoint import atomic_write_text
+from fbil.envs import max_return
 from fbil.errors import FbilError
 from fbil.evaluation.benchmark import read_results
 from fbil.evaluation.budget_curve import curve_section, find_curve, read_curve
@@ -38,7 +39,13 @@ from fbil.evaluation.families import (
     time_figure,
     time_table,
 )
-from fbil.evaluation.paper import PAPER_RETURNS, PAPER_SCORES, PAPER_TIMES
+from fbil.evaluation.paper import (
+    PAPER_RETURNS,
+    PAPER_SCORES,
+    PAPER_TIMES,
+    above_max_return,
+    paper_score,
+)
 from fbil.evaluation.seeds import find_seeds, seeds_section
 from fbil.imitators import family_of, principle_of
 
@@ -338,6 +345,7 @@ def _domain_report(
         lines += _setting_section(summary, setting, methods, out)
     main = _main_setting(summary)
     if main:
+        lines += _impossible_section(domain, summary["settings"][main])
         lines += _groups_section(summary, main, out)
         lines += _time_section(summary, main, out)
         if curve is not None and curve.get("domain") == domain:
@@ -467,6 +475,7 @@ def _returns_table(
     domain: str, setting: str, methods: dict[str, Any], names: list[str], tasks: list[str]
 ) -> list[str]:
     paper_returns = PAPER_RETURNS.get(domain, {})
+    impossible = above_max_return(domain)
     lines = [f"### Returns per task ({setting}): fbil (paper)", ""]
     lines += ["| method | " + " | ".join(tasks) + " |", "|---" * (len(tasks) + 1) + "|"]
     expert = {
@@ -484,9 +493,45 @@ def _returns_table(
         for t in tasks:
             ours = methods[m]["tasks"].get(t)
             paper = paper_returns.get(m, {}).get(t, float("nan"))
-            cells.append(f"{_fmt(ours['return_mean']) if ours else '–'} ({_fmt(paper)})")
+            mark = "†" if t in impossible.get(m, {}) else ""
+            cells.append(f"{_fmt(ours['return_mean']) if ours else '–'} ({_fmt(paper)}{mark})")
         lines.append(f"| {m} | " + " | ".join(cells) + " |")
+    if any(m in impossible for m in names):
+        lines += ["", "† above the task's maximum return: see below."]
     return lines
+
+
+def _impossible_section(domain: str, methods: dict[str, Any]) -> list[str]:
+    """The paper's figures that no policy can reach, and each such method compared with the
+    paper on the other tasks only."""
+    impossible = {m: t for m, t in above_max_return(domain).items() if m in methods}
+    if not impossible:
+        return []
+    lines = [
+        "## Paper figures above a task's maximum return",
+        "",
+        "Each task's reward pays at most `reward_max` per step (1 for every task here), so no "
+        "policy returns more than that times the episode length (`fbil.envs.max_return`). A "
+        "paper figure above it cannot come from the task's reward as defined, so it is no "
+        "target: these methods are compared with the paper on the other tasks too.",
+        "",
+        "| method | task: paper return (maximum) | fbil there (%) | paper, other tasks (%) "
+        "| fbil, other tasks (%) |",
+        "|---|---|---|---|---|",
+    ]
+    for m in order(set(impossible)):
+        per = methods[m]["tasks"]
+        other = [t for t in per if t not in impossible[m]]
+        cells = "; ".join(
+            f"{t}: {v:.1f} ({max_return(domain, t):.0f})" for t, v in impossible[m].items()
+        )
+        there = "; ".join(_fmt(100 * per[t]["score"]) for t in impossible[m] if t in per)
+        ours = 100 * float(np.mean([per[t]["score"] for t in other])) if other else math.nan
+        lines.append(
+            f"| {m} | {cells} | {there or '–'} | {_fmt(paper_score(domain, m, other))} "
+            f"| {_fmt(ours)} |"
+        )
+    return [*lines, ""]
 
 
 def _time_section(summary: dict[str, Any], main: str, out_dir: Path) -> list[str]:
