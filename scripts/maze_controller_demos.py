@@ -3,8 +3,9 @@
 A check that imitation scores do not lean on the committed demos: the point mass is steered
 by a PD law (force towards the next waypoint, damped by its velocity) through the doorways
 on the shortest route to the task's goal, then held at the goal with the push switched off
-once it sits there at rest. Written for the four reach tasks of `point_mass_maze`; every
-other task is refused. The demos are saved in `fbil demos`' format (one npz per task, with
+once it sits there at rest. Written for the five reach tasks of `point_mass_maze` (for
+reach_bottom_left_long, clockwise the long way round, as its reward asks); every other task
+is refused. The demos are saved in `fbil demos`' format (one npz per task, with
 actions and physics), so `fbil imitate/evaluate/benchmark --demos DIR` read them as any.
 
 Usage: python scripts/maze_controller_demos.py --out DIR [--episodes 20] [--seed 7]
@@ -30,6 +31,16 @@ ROUTES = {
     "reach_top_right": [(-0.05, DOOR), (0.05, DOOR), (0.15, 0.15)],
     "reach_bottom_left": [(-DOOR, 0.05), (-DOOR, -0.05), (-0.15, -0.15)],
     "reach_bottom_right": [(-0.05, DOOR), (0.05, DOOR), (DOOR, 0.05), (DOOR, -0.05), (0.15, -0.15)],
+    # The long way round that the task's reward asks for: clockwise through three doorways.
+    "reach_bottom_left_long": [
+        (-0.05, DOOR),
+        (0.05, DOOR),
+        (DOOR, 0.05),
+        (DOOR, -0.05),
+        (0.05, -DOOR),
+        (-0.05, -DOOR),
+        (-0.15, -0.15),
+    ],
 }
 KP, KD = 40.0, 6.0  # push per metre of error, per m/s of velocity
 PASS_RADIUS = 0.03  # a waypoint (not the goal) counts as passed within this distance

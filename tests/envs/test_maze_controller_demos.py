@@ -38,3 +38,21 @@ def test_files_load_as_demos_and_bad_input_is_refused(tmp_path: Path) -> None:
     assert len(demos.trajectories[0]) == 1000
     assert mod.main(["--out", str(tmp_path), "--tasks", "loop"]) == 2
     assert mod.main(["--out", str(tmp_path), "--episodes", "0"]) == 2
+
+
+def test_the_long_task_pays_the_clockwise_route_and_punishes_the_short_one() -> None:
+    """reach_bottom_left_long: the controller's clockwise route earns about what the TD3
+    expert does (666); the short route down the left doorway moves the wrong way and loses
+    (and no route can pass 1 000, the task's maximum return)."""
+    from fbil.envs import max_return
+    from fbil.envs.rollout import BatchedEnv
+
+    mod = _module()
+    long = mod.controller_demos("reach_bottom_left_long", episodes=2, seed=3)
+    returns = [t.reward.sum() for t in long.trajectories]
+    assert min(returns) > 650 and max(returns) < max_return(
+        "point_mass_maze", "reach_bottom_left_long"
+    )
+    env = BatchedEnv("point_mass_maze", "reach_bottom_left_long", 2)
+    short = env.rollout(mod.WaypointController(mod.ROUTES["reach_bottom_left"], 2), [5, 6])
+    assert short.reward.sum(axis=-1).max() < 0
