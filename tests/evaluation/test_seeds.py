@@ -126,3 +126,55 @@ def test_script_mistakes_are_one_line_errors(
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and message in err[0], err
     assert not (tmp_path / "s.json").exists()
+
+
+def _arm(measures: list[float], reach: float) -> dict[str, Any]:
+    """A seeds.json with one model per measure: two methods whose mean is the measure."""
+    zero_shot = {t: reach for t in ("reach_top_left", "reach_top_right")}
+    zero_shot |= {"reach_bottom_left": reach + 10, "reach_bottom_right": reach - 10, "loop": 0.0}
+    return {
+        "seeds": [
+            {
+                "model": f"m{i}",
+                "scores": {"erfb": m - 0.1, "goalfb": m + 0.1, "bc": 0.9},
+                "zero_shot": zero_shot,
+            }
+            for i, m in enumerate(measures)
+        ]
+    }
+
+
+def test_the_recipe_rule_needs_a_gap_above_the_spread_and_a_zero_shot_floor() -> None:
+    from fbil.evaluation.seeds import recipe_decision
+
+    base = _arm([0.40, 0.44], 580.0)
+    # Per model, the mean of erfb, goalfb and bc: (2 m + 0.9) / 3; ahead by more than the spread.
+    won = recipe_decision(base, _arm([0.47, 0.47, 0.47], 600.0))
+    assert won["decision"] == "replace the baseline by the candidate"
+    assert won["difference"] == pytest.approx((0.47 * 2 + 0.9) / 3 - (0.42 * 2 + 0.9) / 3)
+    assert won["threshold"] == pytest.approx(0.04 / 2**0.5 * 2 / 3)  # std of the 3-method means
+    assert won["candidate"]["zero_shot_mean"] == pytest.approx(600.0)
+    # Ahead by less than the spread: not told apart.
+    close = recipe_decision(base, _arm([0.43, 0.45], 600.0))
+    assert close["decision"].startswith("keep the baseline: the arms are not told apart")
+    # Ahead, but its zero-shot reach mean is under 500.
+    low = recipe_decision(base, _arm([0.50, 0.50], 480.0))
+    assert "zero-shot mean is under 500" in low["decision"]
+    # One seed in an arm: no spread, no decision.
+    assert recipe_decision(base, _arm([0.9], 600.0))["decision"].startswith("undecided")
+
+
+def test_the_decision_script_reads_two_seed_files(tmp_path: Path, capsys: Any) -> None:
+    from tests.script_module import load_script
+
+    mod = load_script("recipe_decision")
+    a, b = tmp_path / "a.json", tmp_path / "b.json"
+    a.write_text(json.dumps(_arm([0.40, 0.44], 580.0)))
+    b.write_text(json.dumps(_arm([0.47, 0.47], 600.0)))
+    out = tmp_path / "decision.json"
+    assert mod.main(["--baseline", str(a), "--candidate", str(b), "--out", str(out)]) == 0
+    assert "replace the baseline by the candidate" in capsys.readouterr().out
+    assert json.loads(out.read_text())["candidate"]["n"] == 2
+    (tmp_path / "bad.json").write_text("[1, 2]")
+    assert mod.main(["--baseline", str(tmp_path / "bad.json"), "--candidate", str(b)]) == 2
+    assert "not a seeds.json" in capsys.readouterr().err

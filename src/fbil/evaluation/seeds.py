@@ -191,3 +191,58 @@ def seeds_section(seeds: dict[str, Any]) -> list[str]:
         + " |"
     )
     return [*lines, ""]
+
+
+REACH = ("reach_top_left", "reach_top_right", "reach_bottom_left", "reach_bottom_right")
+
+
+def recipe_decision(
+    baseline: dict[str, Any],
+    candidate: dict[str, Any],
+    zero_shot_tasks: Sequence[str] = REACH,
+    zero_shot_floor: float = 500.0,
+) -> dict[str, Any]:
+    """Issue #23's rule, fixed before its results (docs/fb-maze-notes.md): two recipes' seed
+    summaries (seeds.json each); a model's measure is its mean score over the methods every
+    seed of both arms has, an arm's figure the mean over its seeds and its spread their
+    sample std. The candidate replaces the baseline only if its figure is higher by more
+    than the larger spread and its mean zero-shot return over `zero_shot_tasks` (over
+    seeds) is at least `zero_shot_floor`; with fewer than 2 seeds in an arm there is no
+    spread, and no decision."""
+    arms = {"baseline": baseline, "candidate": candidate}
+    methods = sorted(
+        set.intersection(*(set(e["scores"]) for a in arms.values() for e in a["seeds"]))
+    )
+    if not methods:
+        raise FbilError("the two arms' seeds share no method; run the same grid for both")
+    out: dict[str, Any] = {"methods": methods, "zero_shot_tasks": list(zero_shot_tasks)}
+    for name, arm in arms.items():
+        measures = [float(np.mean([e["scores"][m] for m in methods])) for e in arm["seeds"]]
+        zs = []
+        for e in arm["seeds"]:
+            missing = [t for t in zero_shot_tasks if t not in e["zero_shot"]]
+            if missing:
+                raise FbilError(f"{e['model']}: no zero-shot return for {', '.join(missing)}")
+            zs.append(float(np.mean([e["zero_shot"][t] for t in zero_shot_tasks])))
+        out[name] = {
+            "models": [e["model"] for e in arm["seeds"]],
+            "measure": measures,
+            **{k: v for k, v in _spread(measures).items() if k in ("mean", "std", "n")},
+            "zero_shot_mean": float(np.mean(zs)),
+        }
+    b, c = out["baseline"], out["candidate"]
+    out["difference"] = c["mean"] - b["mean"]
+    if min(b["n"], c["n"]) < 2:
+        out["threshold"] = float("nan")
+        out["decision"] = "undecided: every arm needs at least 2 seeds for a spread"
+        return out
+    out["threshold"] = max(b["std"], c["std"])
+    if out["difference"] <= out["threshold"]:
+        out["decision"] = "keep the baseline: the arms are not told apart"
+    elif c["zero_shot_mean"] < zero_shot_floor:
+        out["decision"] = (
+            f"keep the baseline: the candidate's zero-shot mean is under {zero_shot_floor:g}"
+        )
+    else:
+        out["decision"] = "replace the baseline by the candidate"
+    return out
