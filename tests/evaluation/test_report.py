@@ -171,6 +171,10 @@ def test_a_paper_figure_no_policy_can_reach_is_marked_and_left_out(tmp_path: Pat
     paper = 100 * (442.7 / 912.4 + 296.7 / 952.9) / 2
     row = f"| smodice | reach_bottom_left_long: 1340.2 (1000) | -100.0 | {paper:.1f} | 30.0 |"
     assert row in text
+    # Results on that task alone: nothing to compare the rest with, and no crash.
+    alone = _rows("point_mass_maze", "smodice", {"reach_bottom_left_long": (-1.0,)}, (5.0,))
+    only = write_report(_write(tmp_path / "only.jsonl", alone), tmp_path / "only").read_text()
+    assert "| smodice | reach_bottom_left_long: 1340.2 (1000) | -100.0 | – | – |" in only
     # Without such a method in the results there is no such section.
     plain = write_report(_write(tmp_path / "plain.jsonl", _maze_rows()), tmp_path / "plain")
     assert "maximum return" not in plain.read_text()

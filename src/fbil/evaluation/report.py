@@ -527,10 +527,8 @@ def _impossible_section(domain: str, methods: dict[str, Any]) -> list[str]:
         )
         there = "; ".join(_fmt(100 * per[t]["score"]) for t in impossible[m] if t in per)
         ours = 100 * float(np.mean([per[t]["score"] for t in other])) if other else math.nan
-        lines.append(
-            f"| {m} | {cells} | {there or '–'} | {_fmt(paper_score(domain, m, other))} "
-            f"| {_fmt(ours)} |"
-        )
+        paper = paper_score(domain, m, other) if other else math.nan
+        lines.append(f"| {m} | {cells} | {there or '–'} | {_fmt(paper)} | {_fmt(ours)} |")
     return [*lines, ""]
 
 
