@@ -814,7 +814,12 @@ def _add_expert(sub: Any) -> None:
     p.add_argument("domain")
     p.add_argument("task")
     p.add_argument("--mode", default="offline", help="offline (needs --data) or online")
-    p.add_argument("--data", default=None, help="dataset to relabel (offline)")
+    p.add_argument(
+        "--data",
+        default=None,
+        help="dataset relabeled with the task: all of the data (offline), or part of each "
+        "minibatch beside the replay buffer (online; share: --set offline_share=0.5)",
+    )
     p.add_argument("--out", required=True, help="expert folder")
     p.add_argument("--steps", type=int, default=100_000, help="gradient steps")
     p.add_argument("--eval-every", type=int, default=10_000, help="gradient steps")

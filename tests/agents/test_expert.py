@@ -128,7 +128,7 @@ def test_online_nstep_samples_follow_one_env_within_one_episode() -> None:
     loop = _OnlineLoop(agent, "point_mass_maze", "loop", 2, 10**9, seed=0, step=0)
     for _ in range(40):
         loop.step()
-    obs, act, reward, next_obs, discount = loop.sample()
+    obs, act, reward, next_obs, discount = loop.sample(agent.cfg.batch_size)
     assert len(obs) > 0
     batch = (obs.numpy(), act.numpy(), reward.numpy(), next_obs.numpy())
     for s, a, r, s_n in zip(*batch, strict=True):
@@ -220,4 +220,48 @@ def test_online_init_errors_are_one_line(
         small = TD3Config(hidden=32)
         train_expert(
             "point_mass_maze", "loop", "online", tmp_path / "d", config=small, init=expert_dir
+        )
+
+
+def test_online_with_a_dataset_mixes_its_rows_into_every_minibatch(
+    fixture_data: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """RLPD's symmetric sampling: with --data online, offline_share of each minibatch comes
+    from the dataset relabeled with the task, the rest from the replay buffer, and the
+    dataset's statistics standardise the observations."""
+    data = load_dataset(fixture_data)
+    seen: list[tuple[torch.Tensor, ...]] = []
+    update = TD3.update
+
+    def spy(self: TD3, *batch: torch.Tensor) -> dict[str, float]:
+        seen.append(batch)
+        return update(self, *batch)
+
+    monkeypatch.setattr(TD3, "update", spy)
+    cfg = TD3Config(hidden=32, batch_size=40, offline_share=0.25)
+    kw = dict(config=cfg, eval_episodes=1, progress=False, start_steps=10, data=fixture_data)
+    out = tmp_path / "rlpd"
+    train_expert("point_mass_maze", "loop", "online", out, steps=14, eval_every=14, **kw)
+    assert len(seen) == 5  # steps 10-14: an update per environment step from the 10th on
+    known = {tuple(row) for row in data.observation.tolist()}
+    rewards = data.reward("loop")
+    for obs, _, reward, _, _ in seen:
+        assert len(obs) == len(reward) == 40
+        from_data = [tuple(row) in known for row in obs.tolist()]
+        assert from_data == [False] * 30 + [True] * 10  # the buffer's rows, then the data's
+        assert set(reward[30:].tolist()) <= set(rewards.astype(np.float32).tolist())
+    from fbil.checkpoint import load_state
+
+    stats = load_state(out / "checkpoint.safetensors")["agent"]["obs_stats"]
+    np.testing.assert_allclose(stats[0].numpy(), data.observation.mean(0), rtol=1e-5, atol=1e-6)
+    assert json.loads((out / "expert.json").read_text())["data"] == str(fixture_data)
+    with pytest.raises(FbilError, match="draws no dataset row"):
+        small = TD3Config(hidden=32, batch_size=40, offline_share=0.01)
+        train_expert(
+            "point_mass_maze",
+            "loop",
+            "online",
+            tmp_path / "none",
+            steps=2,
+            **{**kw, "config": small},
         )

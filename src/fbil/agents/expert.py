@@ -84,8 +84,11 @@ def train_expert(
     if mode == "offline":
         learner = _offline_learner(agent, cfg, data, domain, task, resume)
     else:
+        prior = None
+        if data is not None:  # RLPD: part of each minibatch from the relabeled dataset
+            prior = _prior_sampler(agent, cfg, data, domain, task, stats=not resume and not init)
         learner = _OnlineLoop(
-            agent, domain, task, num_envs, start_steps, seed, step, warm_actor=init is not None
+            agent, domain, task, num_envs, start_steps, seed, step, init is not None, prior
         )
     if resume and learner_state:
         learner.load(learner_state)
@@ -179,6 +182,24 @@ def _offline_learner(
     if not resume:
         agent.set_obs_stats(dataset.observation)
     return _OfflineLoop(agent, offline_sampler(dataset, task, cfg, agent.gen))
+
+
+def _prior_sampler(
+    agent: TD3, cfg: TD3Config, data: str | Path, domain: str, task: str, stats: bool
+) -> Callable[[], tuple[torch.Tensor, ...]]:
+    """Online with a dataset: minibatches of round(offline_share x batch) rows of the
+    dataset relabeled with the task; its statistics standardise observations (`stats`:
+    a fresh run not started from another expert's)."""
+    dataset = load_dataset(data, domain=domain)
+    if stats:
+        agent.set_obs_stats(dataset.observation)
+    rows = round(cfg.offline_share * cfg.batch_size)
+    if rows < 1:
+        raise FbilError(
+            f"--data online: offline_share {cfg.offline_share} of batch {cfg.batch_size} "
+            "draws no dataset row; raise offline_share or drop --data"
+        )
+    return offline_sampler(dataset, task, dataclasses.replace(cfg, batch_size=rows), agent.gen)
 
 
 def _train_loop(
@@ -372,14 +393,16 @@ class _OnlineLoop:
         start_steps: int,
         seed: int,
         step: int,
-        capacity: int = 1_000_000,
         warm_actor: bool = False,
+        prior: Callable[[], tuple[torch.Tensor, ...]] | None = None,
+        capacity: int = 1_000_000,
     ) -> None:
         spec = get_domain(domain)
         self.agent, self.start_steps, self.n = agent, start_steps, num_envs
         # A fine-tuned expert fills the first buffer rows with its own noisy actions: uniform
         # random actions would never leave the maze's start room.
         self.warm_actor = warm_actor
+        self.prior = prior  # minibatch rows from a relabeled dataset (RLPD), if given
         self.envs = BatchedEnv(domain, task, num_envs).envs
         self.rng = np.random.default_rng(seed + step)
         self.obs = np.zeros((capacity, spec.obs_dim), np.float32)
@@ -449,18 +472,23 @@ class _OnlineLoop:
         self.current = self._reset_all() if done else np.stack(nxt)
         if self.env_steps < self.start_steps:
             return {}
-        return self.agent.update(*self.sample())
+        if self.prior is None:
+            return self.agent.update(*self.sample(self.agent.cfg.batch_size))
+        prior = self.prior()
+        online = self.sample(self.agent.cfg.batch_size - len(prior[0]))
+        both = (torch.cat([a.float(), b.float()]) for a, b in zip(online, prior, strict=True))
+        return self.agent.update(*both)
 
-    def sample(self) -> tuple[torch.Tensor, ...]:
-        """A minibatch of n-step transitions (R, s_n, gamma^(n-1)) as `offline_sampler`.
+    def sample(self, size: int) -> tuple[torch.Tensor, ...]:
+        """`size` n-step transitions (R, s_n, gamma^(n-1)) as `offline_sampler`'s.
         Truncation is not termination: every transition bootstraps."""
         cfg, n = self.agent.cfg, self.agent.cfg.nstep
         span = np.arange(n) * self.n
-        k = self.rng.integers(0, self.size, 2 * cfg.batch_size + 64)
+        k = self.rng.integers(0, self.size, 2 * size + 64)
         rows = (k[:, None] + span) % self.cap
         # Keep starts whose n transitions are one env's consecutive steps of one episode.
         ok = (self.t[rows] == self.t[k][:, None] + np.arange(n)).all(-1)
-        rows = rows[ok][: cfg.batch_size]
+        rows = rows[ok][:size]
         reward = (self.rew[rows] * cfg.gamma ** np.arange(n)).sum(-1)
         return (
             torch.from_numpy(self.obs[rows[:, 0]]),

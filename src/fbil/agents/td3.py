@@ -43,10 +43,17 @@ class TD3Config:
     # "bf16": hidden layers under bf16 autocast (AVX-512 BF16 matmuls at ~4x the fp32
     # rate on these CPUs), last layers, losses and optimiser in fp32; "fp32": plain.
     precision: Literal["fp32", "bf16"] = "fp32"
+    # Online with a dataset (`fbil expert --mode online --data DIR`): the share of each
+    # minibatch drawn from the dataset relabeled with the task, the rest from the replay
+    # buffer (RLPD's symmetric sampling, Ball et al. 2023: prior data shows the learner
+    # rewarded states its own exploration may never reach).
+    offline_share: float = 0.5
 
     def __post_init__(self) -> None:
         if self.precision not in ("fp32", "bf16"):
             raise FbilError(f"unknown precision {self.precision!r}; valid: fp32, bf16")
+        if not 0 <= self.offline_share < 1:
+            raise FbilError(f"offline_share must be in [0, 1), got {self.offline_share}")
 
 
 def _mlp(inp: int, hidden: int, out: int) -> nn.Sequential:
