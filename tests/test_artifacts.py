@@ -3,7 +3,7 @@ from pathlib import Path
 
 import pytest
 
-from fbil.artifacts import sha256, verify, write_manifest
+from fbil.artifacts import refresh_manifest, sha256, verify, write_manifest
 from fbil.errors import FbilError
 
 
@@ -24,6 +24,24 @@ def test_manifest_records_and_verifies_every_file(tmp_path: Path) -> None:
     (tmp_path / "a.json").unlink()
     with pytest.raises(FbilError, match=r"missing artifact .*a\.json"):
         verify(tmp_path)
+
+
+def test_refresh_records_regenerated_files_and_keeps_the_other_fields(tmp_path: Path) -> None:
+    (tmp_path / "a.json").write_text("{}")
+    write_manifest(tmp_path, "fbil x", seed=1, wall_seconds=2.0, commit="abc", extra={"k": "v"})
+    (tmp_path / "a.json").write_text('{"new": 1}')
+    (tmp_path / "b.png").write_bytes(b"png")
+    with pytest.raises(FbilError, match="does not match"):
+        verify(tmp_path)
+    refresh_manifest(tmp_path, {"rerun": "fbil y"})
+    body = verify(tmp_path)
+    assert body["sha256"] == {
+        "a.json": sha256(tmp_path / "a.json"),
+        "b.png": sha256(tmp_path / "b.png"),
+    }
+    assert (body["command"], body["k"], body["rerun"], body["seed"]) == ("fbil x", "v", "fbil y", 1)
+    with pytest.raises(FbilError, match="no manifest"):
+        refresh_manifest(tmp_path / "nowhere")
 
 
 ARTIFACTS = Path(__file__).parents[1] / "artifacts"

@@ -35,11 +35,7 @@ def write_manifest(
     extra: dict[str, Any] | None = None,
 ) -> Path:
     directory = Path(directory)
-    files = {
-        p.relative_to(directory).as_posix(): sha256(p)
-        for p in sorted(directory.rglob("*"))
-        if p.is_file() and p.name != MANIFEST and not p.name.startswith(".")
-    }
+    files = _digests(directory)
     body = {
         "command": command,
         "git_commit": commit,
@@ -50,6 +46,28 @@ def write_manifest(
         **(extra or {}),
     }
     return atomic_write_text(directory / MANIFEST, json.dumps(body, indent=2) + "\n")
+
+
+def _digests(directory: Path) -> dict[str, str]:
+    return {
+        p.relative_to(directory).as_posix(): sha256(p)
+        for p in sorted(directory.rglob("*"))
+        if p.is_file() and p.name != MANIFEST and not p.name.startswith(".")
+    }
+
+
+def refresh_manifest(directory: str | Path, notes: dict[str, str] | None = None) -> Path:
+    """Re-record the sha256 of every file of an existing manifest's folder after some of its
+    files were regenerated, keeping the manifest's other fields and adding `notes` (the
+    commands of the regeneration) as fields of their own."""
+    directory = Path(directory)
+    path = directory / MANIFEST
+    if not path.is_file():
+        raise FbilError(f"no manifest in {directory}; write one first with write_manifest")
+    body: dict[str, Any] = json.loads(path.read_text())
+    body["sha256"] = _digests(directory)
+    body.update(notes or {})
+    return atomic_write_text(path, json.dumps(body, indent=2, ensure_ascii=False) + "\n")
 
 
 def verify(directory: str | Path) -> dict[str, Any]:
