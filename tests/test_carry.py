@@ -1,0 +1,42 @@
+"""scripts/carry.sh: a run's resumable files go to carry/NAME and back unchanged; a folder
+that is not a training run is refused with one line and exit 2."""
+
+import os
+import subprocess
+from pathlib import Path
+
+SCRIPT = Path(__file__).parents[1] / "scripts" / "carry.sh"
+FILES = {
+    "checkpoint.safetensors": b"\x00weights",
+    "config.json": b"{}",
+    "train_log.csv": b"step,x\n250,1\n",
+}
+
+
+def _carry(*args: str, root: Path) -> subprocess.CompletedProcess[str]:
+    env = {**os.environ, "CARRY_DIR": str(root)}
+    return subprocess.run(["bash", str(SCRIPT), *args], env=env, capture_output=True, text=True)
+
+
+def test_save_then_load_round_trips_the_resumable_files(tmp_path: Path) -> None:
+    run = tmp_path / "run"
+    run.mkdir()
+    for name, data in FILES.items():
+        (run / name).write_bytes(data)
+    (run / "snapshots").mkdir()  # not carried
+    root = tmp_path / "carry"
+    saved = _carry("save", str(run), "maze_s1", root=root)
+    assert saved.returncode == 0, saved.stderr
+    assert sorted(p.name for p in (root / "maze_s1").iterdir()) == sorted(FILES)
+    loaded = _carry("load", "maze_s1", str(tmp_path / "back"), root=root)
+    assert loaded.returncode == 0, loaded.stderr
+    assert {n: (tmp_path / "back" / n).read_bytes() for n in FILES} == FILES
+    assert "250 steps" in loaded.stdout
+
+
+def test_a_folder_without_a_checkpoint_is_refused(tmp_path: Path) -> None:
+    out = _carry("save", str(tmp_path), "x", root=tmp_path / "carry")
+    assert out.returncode == 2
+    assert out.stderr.count("\n") == 1 and "checkpoint.safetensors is missing" in out.stderr
+    assert not (tmp_path / "carry").exists()
+    assert _carry("push", "a", "b", root=tmp_path).returncode == 2

@@ -1,0 +1,48 @@
+"""scripts/regenerate_datasets.sh runs exactly the commands the dataset manifests record
+(checked with DRY=1, which prints them without running anything)."""
+
+import json
+import os
+import re
+import subprocess
+from pathlib import Path
+
+ROOT = Path(__file__).parents[1]
+SCRIPT = ROOT / "scripts" / "regenerate_datasets.sh"
+
+
+def _dry(domain: str) -> tuple[int, list[str]]:
+    out = subprocess.run(
+        ["bash", str(SCRIPT), domain],
+        env={**os.environ, "DRY": "1"},
+        capture_output=True,
+        text=True,
+    )
+    return out.returncode, [line[2:] for line in out.stdout.splitlines() if line.startswith("+ ")]
+
+
+def _manifest(domain: str) -> dict[str, str]:
+    return json.loads((ROOT / "artifacts" / "datasets" / domain / "manifest.json").read_text())
+
+
+def test_maze_commands_are_the_recorded_regeneration() -> None:
+    rc, commands = _dry("point_mass_maze")
+    assert rc == 0
+    recorded = re.findall(
+        r"(fbil (?:collect|dataset-oversample) [^;]+?)(?:;|$)",
+        _manifest("point_mass_maze")["regeneration_check"],
+    )
+    assert len(recorded) == 3
+    assert all(c in commands for c in recorded), (recorded, commands)
+    assert commands.index(recorded[0]) < commands.index(recorded[1]) < commands.index(recorded[2])
+
+
+def test_walker_command_is_the_recorded_collection() -> None:
+    rc, commands = _dry("walker")
+    assert rc == 0
+    assert commands == [_manifest("walker")["dataset_manifest"]["command"]]
+
+
+def test_a_domain_without_a_recipe_is_refused() -> None:
+    out = subprocess.run(["bash", str(SCRIPT), "cheetah"], capture_output=True, text=True)
+    assert out.returncode == 2 and "no regeneration recipe" in out.stderr
