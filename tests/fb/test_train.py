@@ -274,6 +274,7 @@ def test_resume_on_other_data_is_noted_and_kept_in_the_metadata(
         ("target_heads", "max", "unknown target_heads 'max'; valid: min, mean"),
         ("actor_clamp", "soft", "unknown actor_clamp 'soft'; valid: hard, straight_through"),
         ("precision", "fp16", "unknown precision 'fp16'; valid: fp32, bf16"),
+        ("init", "xavier", "unknown init 'xavier'; valid: torch, orthogonal"),
     ],
 )
 def test_train_config_names_a_bad_choice_and_the_valid_ones(
@@ -384,3 +385,28 @@ def test_ema_decay_outside_its_range_is_named(decay: float) -> None:
 
     with pytest.raises(FbilError, match="ema_decay"):
         FBTrainConfig(ema_decay=decay)
+
+
+def test_orthogonal_init_starts_every_linear_layer_orthonormal_with_zero_biases(
+    fixture_data: Path,
+) -> None:
+    """init="orthogonal": each weight matrix (each twin head's on its own) has orthonormal
+    rows or columns and every bias is zero; the targets and the first update start from
+    those weights; the default init is untouched."""
+    trainer = _smoke_trainer(fixture_data, init="orthogonal")
+    mats = [m.weight.T for m in trainer.model.modules() if isinstance(m, torch.nn.Linear)]
+    mats += [w[k] for w in trainer.model.forward_net.heads.weights for k in range(2)]
+    assert len(mats) >= 10
+    for w in mats:  # (fan_in, fan_out)
+        gram = w.T @ w if w.shape[0] >= w.shape[1] else w @ w.T
+        torch.testing.assert_close(gram, torch.eye(gram.shape[0]), atol=1e-5, rtol=0)
+    biases = [m.bias for m in trainer.model.modules() if isinstance(m, torch.nn.Linear)]
+    assert all(
+        torch.count_nonzero(b) == 0 for b in [*biases, *trainer.model.forward_net.heads.biases]
+    )
+    torch.testing.assert_close(
+        trainer.f_target.heads.weights[0], trainer.model.forward_net.heads.weights[0]
+    )
+    trainer.update()
+    default = _smoke_trainer(fixture_data)
+    assert torch.count_nonzero(default.model.forward_net.heads.biases[0]) > 0

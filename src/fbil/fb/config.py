@@ -14,6 +14,7 @@ BNorm = Literal["l2", "batchnorm", "none"]
 Precision = Literal["fp32", "bf16"]
 TargetHeads = Literal["min", "mean"]
 ActorClamp = Literal["hard", "straight_through"]
+Init = Literal["torch", "orthogonal"]
 
 
 @dataclass(frozen=True)
@@ -92,6 +93,11 @@ class FBTrainConfig:
     # iterate is one point of a noisy path, the average a smoother estimate of it. The
     # first updates use min(decay, (1 + t) / (10 + t)), so the random init fades fast.
     ema_decay: float = 0.0
+    # Initial weights: "torch" (PyTorch's default, uniform +-1/sqrt(fan_in) for weights and
+    # biases) or "orthogonal" (orthogonal weights, gain 1, zero biases, for every linear
+    # layer of F, B and the actor), the reference FB code's initialisation
+    # (docs/fb-reference-audit.md).
+    init: Init = "torch"
 
     def __post_init__(self) -> None:
         if self.steps < 1 or self.batch_size < 2:
@@ -120,6 +126,8 @@ class FBTrainConfig:
             raise FbilError(f"snapshot_every must be >= 0 (0: none), got {self.snapshot_every}")
         if not 0 <= self.ema_decay < 1:
             raise FbilError(f"ema_decay must be in [0, 1) (0: off), got {self.ema_decay}")
+        if self.init not in ("torch", "orthogonal"):
+            raise FbilError(f"unknown init {self.init!r}; valid: torch, orthogonal")
         if self.freeze_b_step < 0:
             raise FbilError(f"freeze_b_step must be >= 0 (0: never), got {self.freeze_b_step}")
 

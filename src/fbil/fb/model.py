@@ -87,6 +87,21 @@ class TwinHead(nn.Module):
         return h
 
 
+@torch.no_grad()
+def orthogonal_init(module: nn.Module) -> None:
+    """Orthogonal weights (gain 1) and zero biases for every linear layer under `module`,
+    twin heads included (each head's matrix on its own); layer norms keep ones and zeros."""
+    for m in module.modules():
+        if isinstance(m, nn.Linear):
+            nn.init.orthogonal_(m.weight)
+            nn.init.zeros_(m.bias)
+        elif isinstance(m, TwinHead):
+            for w, b in zip(m.weights, m.biases, strict=True):
+                for head in w:  # (fan_in, fan_out): orthogonal like Linear's (out, in) weight
+                    nn.init.orthogonal_(head.T)
+                nn.init.zeros_(b)
+
+
 class BackwardNet(nn.Module):
     def __init__(self, cfg: FBModelConfig) -> None:
         super().__init__()

@@ -44,7 +44,7 @@ from fbil.csvlog import last_wall_seconds, truncate_log
 from fbil.data import Dataset
 from fbil.errors import FbilError
 from fbil.fb.config import FBModelConfig, FBTrainConfig
-from fbil.fb.model import CONFIG, FBModel
+from fbil.fb.model import CONFIG, FBModel, orthogonal_init
 from fbil.progress import progress_bar
 from fbil.stopping import StopSignals
 
@@ -139,6 +139,8 @@ class FBTrainer:
         self.device = torch.device(device)
         torch.manual_seed(train_config.seed)
         self.model = FBModel(model_config).train()
+        if train_config.init == "orthogonal":
+            orthogonal_init(self.model)
         if model_config.normalize_obs:
             self.model.set_obs_stats(dataset.observation)
         self.model.to(self.device)
