@@ -33,8 +33,9 @@ from typing import Any
 from fbil.checkpoint import atomic_write_text
 from fbil.errors import FbilError
 from fbil.evaluation.benchmark import job_key, make_jobs, read_results, run_benchmark
-from fbil.evaluation.budget_curve import build_curve, curve_point, scaled_spec, write_curve
+from fbil.evaluation.budget_curve import build_curve, curve_point, write_curve
 from fbil.evaluation.report import summarise
+from fbil.imitators.budgets import scaled_spec
 
 
 def _names(text: str) -> list[str]:

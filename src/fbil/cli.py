@@ -331,8 +331,10 @@ def _fit_context(args: argparse.Namespace, names: Sequence[str], demos: Any) -> 
     them imitates through it), the dataset of --data (only when one trains on it), the
     budget, seed and threads."""
     from fbil.imitators import FitContext, get_imitator
+    from fbil.imitators.base import check_settings_used
 
     needed = [get_imitator(n) for n in names]
+    check_settings_used(needed, args.budget)
     model = dataset = None
     if any(i.needs_model for i in needed):
         from fbil.fb.model import FBModel
@@ -459,7 +461,7 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
     from fbil.checkpoint import atomic_write_text
     from fbil.evaluation.evaluate import evaluate
     from fbil.imitation.demos import Demos
-    from fbil.imitators import resolve
+    from fbil.imitators import get_imitator, resolve
 
     demos = Demos.load(args.demos)
     context = _fit_context(args, resolve(args.methods).names, demos)
@@ -476,6 +478,9 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
         goal_model=context.goal_model,
     )
     methods = {m: r.as_dict() for m, r in out["results"].items()}
+    for m in methods:  # the methods that train: their budget and its whole configuration
+        if get_imitator(m).budgets:
+            methods[m].update(get_imitator(m).settings(context))
     methods.update({m: {"skipped": why} for m, why in out["skipped"].items()})
     keys = ("expert_return", "task", "k", "episodes")
     payload = json.dumps({**{key: out[key] for key in keys}, "methods": methods})
@@ -789,6 +794,14 @@ def _add_training_inputs(p: argparse.ArgumentParser) -> None:
         "NAME@SCALE multiplies its gradient steps (cpu@0.5, cpu@2)",
     )
     p.add_argument(
+        "--set",
+        dest="budget_settings",
+        action="append",
+        metavar="PATH=VALUE",
+        help="change one setting of the budget of the methods that train, e.g. --set "
+        "dual.divergence=kl (repeatable; recorded in the budget, cpu,dual.divergence=kl)",
+    )
+    p.add_argument(
         "--goal-model",
         default=None,
         help="pre-trained goal model folder, for goal_td3 (from `fbil pretrain-goal`)",
@@ -1004,6 +1017,10 @@ def _prepare(args: argparse.Namespace) -> None:
         value = getattr(args, option.lstrip("-").replace("-", "_"))
         if value is not None:
             _check_writable(str(value), kind, option)
+    if getattr(args, "budget_settings", None):
+        from fbil.imitators.budgets import with_settings
+
+        args.budget = with_settings(args.budget, args.budget_settings)
     threads = getattr(args, "threads", None)
     if threads is not None:
         if threads < 1:

@@ -263,7 +263,9 @@ def train_dice(
     dataset and the demonstrations (`union`; they need actions). `on_step(step, learner,
     metrics)` is called after every update (diagnostics: learning curves); `reward_fn(batch)`
     replaces the discriminator's reward (diagnostics: the task's true reward as an oracle)."""
-    disc_cfg = replace(cfg.discriminator, gradient_penalty=penalty)
+    disc_cfg = cfg.discriminator  # an explicit gradient_penalty (a --set) wins over Table 2's
+    if disc_cfg.gradient_penalty is None:
+        disc_cfg = replace(disc_cfg, gradient_penalty=penalty)
     disc = train_discriminator(kind, demos, dataset, disc_cfg, seed)
     torch.manual_seed(seed)
     gen = torch.Generator().manual_seed(seed + 1)

@@ -65,7 +65,9 @@ def _job_inputs(
     """Per method, the (data, budget, goal model) of its jobs: those it uses, else None
     (checked: a method that needs one of them refuses its absence)."""
     from fbil.imitators import FitContext, get_imitator
+    from fbil.imitators.base import check_settings_used
 
+    check_settings_used([get_imitator(m) for m in methods], budget)
     inputs = {}
     for method in methods:
         imitator = get_imitator(method)

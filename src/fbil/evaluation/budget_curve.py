@@ -20,15 +20,10 @@ import numpy as np
 
 from fbil.errors import FbilError
 from fbil.evaluation.paper import PAPER_RETURNS, PAPER_SCORES
-from fbil.imitators.budgets import SEPARATOR, STEP_FIELD
+from fbil.imitators.budgets import STEP_FIELD
 
 CURVE_FILE = "budget_curve.json"
 FIGURE_FILE = "budget_curve.png"
-
-
-def scaled_spec(budget: str, scale: float) -> str:
-    """The budget spec of `budget` scaled by `scale`: the bare name at scale 1."""
-    return budget if scale == 1 else f"{budget}{SEPARATOR}{scale:g}"
 
 
 def paper_level(domain: str, method: str, tasks: Sequence[str]) -> float | None:

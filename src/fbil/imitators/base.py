@@ -18,7 +18,7 @@ import numpy as np
 
 from fbil.errors import FbilError
 from fbil.imitation.demos import Demos
-from fbil.imitators.budgets import parse_budget
+from fbil.imitators.budgets import parse_budget, split_settings
 
 # fb-il: through a pre-trained FB model, in seconds; offline-il: trained from scratch on
 # the demos (and the unsupervised dataset); bfm: through another behaviour foundation model.
@@ -50,7 +50,7 @@ class FitContext:
 
     model: Any = None
     dataset: Any = None
-    budget: str = "cpu"  # a named budget, or NAME@SCALE (fbil.imitators.budgets)
+    budget: str = "cpu"  # a named budget, NAME@SCALE, then ,PATH=VALUE (fbil.imitators.budgets)
     seed: int = 0
     threads: int = 1
     optimiser: Any = None  # fb-il: the z optimiser (None: its default)
@@ -99,6 +99,10 @@ class Imitator:
             )
         if self.budgets:
             parse_budget(context.budget, self.budgets, self.name)  # a name or NAME@SCALE
+            try:  # resolving the budget checks its changed settings against this method's
+                self.settings(context)
+            except FbilError as exc:
+                raise FbilError(f"budget {context.budget!r} for {self.name}: {exc}") from None
 
     def check(self, demos: Demos, context: FitContext) -> None:
         """One-line errors for what this imitator cannot work with."""
@@ -119,6 +123,17 @@ class Imitator:
         started = time.perf_counter()
         policy = self.fit_policy(demos, context)
         return Fitted(self.name, policy, time.perf_counter() - started)
+
+
+def check_settings_used(imitators: Sequence[Imitator], budget: str) -> None:
+    """Changed budget settings (--set) with no method that trains would change nothing:
+    a one-line error rather than a silent no-op."""
+    if split_settings(budget)[1] and not any(i.budgets for i in imitators):
+        names = ", ".join(i.name for i in imitators)
+        raise FbilError(
+            f"--set changes the budget of methods that train (the offline-IL baselines); "
+            f"none of {names} does: drop --set or add such a method"
+        )
 
 
 def check_dataset(demos: Demos, dataset: Any) -> None:

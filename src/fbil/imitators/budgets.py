@@ -1,12 +1,20 @@
-"""Named training budgets and their scaled forms, parsed here and nowhere else.
+"""Named training budgets, their scaled forms and single-setting changes, parsed here and
+nowhere else.
 
-A budget spec is a name (`cpu`, `smoke`) or a name with a scale, `NAME@SCALE` (`cpu@0.25`,
-`cpu@2`): the named budget's configuration with every gradient-step count multiplied by
-SCALE. The step counts are the fields named `steps` at any depth of the configuration (a
-baseline's discriminator, TD3, SAC, dual, BC steps); each is rounded to the nearest integer
-and kept at least 1. Everything else (widths, batch sizes, learning rates, Sinkhorn
-iterations) is the named budget's. Scaled budgets measure a score-against-training-time
-curve without new named budgets (issue #22 item 2, `scripts/budget_curve.py`).
+A budget spec is a name (`cpu`, `smoke`), optionally with a scale, `NAME@SCALE` (`cpu@0.25`,
+`cpu@2`), then optionally changed settings, `,PATH=VALUE` each (`cpu,dual.divergence=kl`,
+`cpu@0.5,td3.tau=0.01`; what `--set PATH=VALUE` of `fbil imitate/evaluate/benchmark`
+appends). SCALE gives the named budget's configuration with every gradient-step count
+multiplied by SCALE. The step counts are the fields named `steps` at any depth of the
+configuration (a baseline's discriminator, TD3, SAC, dual, BC steps); each is rounded to
+the nearest integer and kept at least 1. Everything else (widths, batch sizes, learning
+rates, Sinkhorn iterations) is the named budget's. Scaled budgets measure a
+score-against-training-time curve without new named budgets (issue #22 item 2,
+`scripts/budget_curve.py`). A changed setting replaces one leaf of the (scaled)
+configuration, nested ones by dotted path, converted to that setting's type
+(`fbil.config.override`): a one-change run of a baseline (a reference's option, another
+divergence) without a new named budget; the spec, recorded in every results line, keeps
+its results apart from the named budget's.
 """
 
 from __future__ import annotations
@@ -16,9 +24,11 @@ import math
 from collections.abc import Sequence
 from typing import Any, TypeVar
 
+from fbil.config import override
 from fbil.errors import FbilError
 
 SEPARATOR = "@"
+SETTING = ","  # before each changed setting, PATH=VALUE
 STEP_FIELD = "steps"  # the name of a gradient-step count in a budget's configuration
 
 T = TypeVar("T")
@@ -30,11 +40,45 @@ def budget_help(names: Sequence[str]) -> str:
     return f"{', '.join(names)} (or NAME{SEPARATOR}SCALE, e.g. {example}{SEPARATOR}0.5)"
 
 
+def split_settings(spec: str) -> tuple[str, list[tuple[str, str]]]:
+    """'cpu@0.5,dual.lr=3e-4' -> ('cpu@0.5', [('dual.lr', '3e-4')]); a changed setting that is
+    not PATH=VALUE is a one-line error."""
+    base, *items = spec.split(SETTING)
+    settings = []
+    for item in items:
+        path, eq, value = item.partition("=")
+        if not (eq and path.strip() and value.strip()):
+            raise FbilError(
+                f"bad budget {spec!r}: each setting after {SETTING!r} is PATH=VALUE "
+                "(e.g. cpu,dual.divergence=kl; --set dual.divergence=kl)"
+            )
+        settings.append((path.strip(), value.strip()))
+    return base, settings
+
+
+def with_settings(spec: str, items: Sequence[str] | None) -> str:
+    """`spec` with the PATH=VALUE `items` (the CLI's --set) appended: 'cpu,dual.lr=3e-4'."""
+    out = SETTING.join([spec, *(items or [])])
+    split_settings(out)  # each item well-formed
+    return out
+
+
+def scaled_spec(spec: str, scale: float) -> str:
+    """`spec` with its gradient steps scaled by `scale`: 'cpu,x=1' at 0.5 -> 'cpu@0.5,x=1'
+    (the bare spec at scale 1; the scale goes on the name, before any changed setting)."""
+    if scale == 1:
+        return spec
+    base, settings = split_settings(spec)
+    return SETTING.join([f"{base}{SEPARATOR}{scale:g}", *(f"{p}={v}" for p, v in settings)])
+
+
 def parse_budget(spec: str, names: Sequence[str], owner: str = "") -> tuple[str, float]:
-    """`spec` -> (budget name, scale): 'cpu' -> ('cpu', 1.0), 'cpu@0.5' -> ('cpu', 0.5).
-    A name not in `names` or a scale that is not a finite number > 0 is a one-line error
-    (`owner`: the imitator whose budget it is, for the message)."""
-    name, sep, scale_text = spec.partition(SEPARATOR)
+    """`spec` -> (budget name, scale): 'cpu' -> ('cpu', 1.0), 'cpu@0.5' -> ('cpu', 0.5)
+    (changed settings, ',PATH=VALUE', are checked for their form only; `Budgets` applies
+    them). A name not in `names` or a scale that is not a finite number > 0 is a one-line
+    error (`owner`: the imitator whose budget it is, for the message)."""
+    base, _ = split_settings(spec)
+    name, sep, scale_text = base.partition(SEPARATOR)
     where = f" for {owner}" if owner else ""
     if name not in names:
         raise FbilError(f"unknown budget {spec!r}{where}; valid: {budget_help(names)}")
@@ -68,10 +112,13 @@ def scale_steps(config: T, scale: float) -> T:
 
 
 class Budgets(dict[str, Any]):
-    """An imitator's named budgets (name -> configuration). Indexing with a scaled spec,
-    `budgets['cpu@0.5']`, gives the named budget's configuration with its steps scaled;
-    iterating gives the names only."""
+    """An imitator's named budgets (name -> configuration). Indexing with a spec,
+    `budgets['cpu@0.5,dual.lr=3e-4']`, gives the named budget's configuration with its
+    steps scaled, then the changed settings applied; iterating gives the names only."""
 
     def __missing__(self, spec: str) -> Any:
         name, scale = parse_budget(spec, list(self))
-        return scale_steps(self[name], scale)
+        config = scale_steps(self[name], scale)
+        for path, value in split_settings(spec)[1]:
+            config = override(config, path, value)
+        return config
