@@ -202,12 +202,10 @@ def _cmd_dataset_oversample(args: argparse.Namespace) -> int:
 
 def _parse_setting(item: str, current: Any, value: str) -> Any:
     """A --set value converted to the type of the setting it replaces."""
+    from fbil.config import convert_text
+
     try:
-        if isinstance(current, bool):
-            if value.lower() not in ("true", "false", "1", "0"):
-                raise ValueError(value)
-            return value.lower() in ("true", "1")
-        return float(value) if current is None else type(current)(value)
+        return convert_text(current, value)
     except ValueError:
         kind = "number" if current is None else type(current).__name__
         raise FbilError(f"--set {item!r}: {value!r} is not a valid {kind}") from None

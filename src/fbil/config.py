@@ -38,19 +38,20 @@ def setting_paths(config: Any, prefix: str = "") -> list[str]:
     return paths
 
 
+def convert_text(current: Any, text: str) -> Any:
+    """`text` as a value of `current`'s type (a number when `current` is None); ValueError
+    when it is not one."""
+    if isinstance(current, bool):
+        if text.lower() not in ("true", "false", "1", "0"):
+            raise ValueError(text)
+        return text.lower() in ("true", "1")
+    return float(text) if current is None else type(current)(text)
+
+
 def _convert(path: str, current: Any, text: str, choices: tuple[Any, ...]) -> Any:
     """`text` as a value of `current`'s type (a Literal's `choices` checked)."""
     try:
-        if isinstance(current, bool):
-            if text.lower() not in ("true", "false", "1", "0"):
-                raise ValueError(text)
-            value: Any = text.lower() in ("true", "1")
-        elif isinstance(current, int):
-            value = int(text)
-        elif isinstance(current, float) or current is None:
-            value = float(text)
-        else:
-            value = type(current)(text)
+        value = convert_text(current, text)
     except ValueError:
         kind = "number" if current is None else type(current).__name__
         raise FbilError(f"setting {path}={text!r}: not a valid {kind}") from None
