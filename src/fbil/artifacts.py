@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import platform
 import time
 from pathlib import Path
 from typing import Any
@@ -24,6 +25,24 @@ def sha256(path: str | Path) -> str:
         for block in iter(lambda: f.read(1 << 20), b""):
             h.update(block)
     return h.hexdigest()
+
+
+def machine() -> str:
+    """The CPU this process runs on and torch's kernel level, e.g. `Intel(R) Xeon(R)
+    Processor, AVX512`. Runs under one seed repeat exactly on one kind of CPU; on another
+    (another vendor or vector width) floating-point sums round differently, and RND
+    collection, training and so every later number drift apart (docs/datasets.md)."""
+    import torch
+
+    model = platform.machine()
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                model = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    return f"{model}, {torch.backends.cpu.get_cpu_capability()}"
 
 
 def write_manifest(

@@ -173,6 +173,10 @@ def test_benchmark_rows_carry_family_budget_and_config(demos_dir: Path, fixture_
     assert bc["data"] is None and td3il["data"] == str(fixture_data)
     assert bc["budget"] == td3il["budget"] == "smoke"
     assert td3il["config"]["expert_ratio"] == 0.002 and len(td3il["returns"]) == 1
+    # Which dataset (a content digest) and which kind of CPU each line was made with.
+    assert bc["data_digest"] is None
+    assert td3il["data_digest"] == load_dataset(fixture_data).digest()
+    assert bc["machine"] == td3il["machine"] and bc["machine"].strip()
 
 
 @pytest.mark.parametrize(

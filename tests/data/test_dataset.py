@@ -55,3 +55,19 @@ def test_doorway_crossings_count_room_changes_in_the_raw_files(tmp_path: Path) -
     assert expected == 2 and got["transitions"] == expected
     assert got["pairs"] == {"top_left->bottom_left": 1, "top_left->top_right": 1}
     assert got["per_episode"] == 1.0
+
+
+def test_the_digest_names_the_content_not_the_copy(fixture_data: Path, tmp_path: Path) -> None:
+    """Two copies of one dataset share a digest; a copy with one action changed (what a
+    regeneration on another kind of CPU gives, in miniature) does not."""
+    import shutil
+
+    copy = tmp_path / "copy"
+    shutil.copytree(fixture_data, copy)
+    assert load_dataset(copy).digest() == load_dataset(fixture_data).digest()
+    first = sorted((copy / "buffer").glob("*.npz"))[0]
+    arrays = dict(np.load(first))
+    arrays["action"][3, 0] += 1e-3
+    np.savez(first, **arrays)
+    shutil.rmtree(copy / "cache", ignore_errors=True)
+    assert load_dataset(copy).digest() != load_dataset(fixture_data).digest()

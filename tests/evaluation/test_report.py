@@ -115,6 +115,22 @@ def test_domain_report_shows_families_baseline_returns_and_times(tmp_path: Path)
     assert "## Over domains" not in text
 
 
+def test_a_method_trained_on_two_regenerations_of_its_data_is_flagged(tmp_path: Path) -> None:
+    rows = _maze_rows()
+    for i, r in enumerate(rows):
+        if r["method"] in ("sqil", "td3il"):
+            # sqil: its first two jobs on one regeneration, the last two on another.
+            same = r["method"] == "td3il" or i % 4 < 2
+            r.update(data_digest="aaaa" if same else "bbbb", machine=f"CPU {i % 2}, AVX2")
+    text = write_report(_write(tmp_path / "maze.jsonl", rows), tmp_path / "report").read_text()
+    assert "Machines: CPU 0, AVX2; CPU 1, AVX2." in text
+    assert "sqil's lines were trained on 2 different datasets (data_digest aaaa, bbbb)" in text
+    assert "td3il's lines were" not in text
+    # Lines without the fields (before session 24) add nothing.
+    plain = write_report(_write(tmp_path / "m.jsonl", _maze_rows()), tmp_path / "r").read_text()
+    assert "Machines:" not in plain and "different datasets" not in plain
+
+
 def test_results_of_several_domains_add_a_report_over_domains(tmp_path: Path) -> None:
     walker = {
         "erfb": ({"run": (0.3, 0.3), "walk": (0.3, 0.3)}, (0.01,) * 4),  # 30 %

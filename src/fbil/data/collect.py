@@ -18,6 +18,7 @@ import numpy as np
 import torch
 
 from fbil import __version__
+from fbil.artifacts import machine
 from fbil.checkpoint import load_state, save_state
 from fbil.data.coverage import coverage_tracker
 from fbil.data.rnd import RNDConfig, RNDPopulation
@@ -122,6 +123,7 @@ def collect(
         "rnd_config": rnd_dict,
         "starts": starts,
         "machine": platform.machine(),
+        "cpu": machine(),
         "wall_seconds": 0.0,
     }
     manifest["episodes_requested"] = episodes

@@ -69,6 +69,7 @@ class Dataset:
         self.next_index = np.flatnonzero(~is_reset)
         self._quantities: Quantities | None = None
         self._rewards: dict[str, np.ndarray] = {}
+        self._digest: str | None = None
 
     # -- sizes -----------------------------------------------------------------------
     @property
@@ -137,6 +138,16 @@ class Dataset:
             r = task_reward(self.domain, task, self.quantities())
             self._rewards[task] = r.astype(np.float32)
         return self._rewards[task]
+
+    def digest(self) -> str:
+        """16 hex digits of sha256 over the observations, actions and discounts: equal for
+        two copies of one dataset, different for a regeneration that drifted (another CPU)."""
+        if self._digest is None:
+            h = hashlib.sha256()
+            for a in (self.observation, self.action, self.discount, self.episode_start):
+                h.update(np.ascontiguousarray(a).tobytes())
+            self._digest = h.hexdigest()[:16]
+        return self._digest
 
     def _fingerprint(self) -> str:
         names = "\n".join(f.path.name for f in self.files)

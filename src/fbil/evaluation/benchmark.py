@@ -27,6 +27,7 @@ from pathlib import Path
 from typing import Any
 
 from fbil import __version__
+from fbil.artifacts import machine
 from fbil.checkpoint import atomic_write_text
 from fbil.errors import FbilError
 
@@ -237,6 +238,10 @@ def run_job(job: Job, commit: str = "unknown") -> dict[str, Any]:
     row: dict[str, Any] = asdict(job)
     row.update(expert_return=out["expert_return"], commit=commit, fbil_version=__version__)
     row.update(family=imitator.family, **imitator.settings(context))
+    # Which data and which kind of CPU: a grid's lines are comparable only on one dataset,
+    # and runs repeat exactly only on one kind of CPU (docs/datasets.md).
+    row.update(data_digest=context.dataset.digest() if context.dataset is not None else None)
+    row.update(machine=machine())
     if job.method in out["skipped"]:
         row.update(skipped=out["skipped"][job.method])
     else:

@@ -315,6 +315,26 @@ def _rows_by_domain(
     return grouped
 
 
+def _provenance(rows: Sequence[dict[str, Any]]) -> list[str]:
+    """The kinds of CPU the jobs ran on, and a warning for each method whose lines were
+    trained on more than one dataset (a regeneration on another kind of CPU is a new sample
+    of the recipe, not a copy; lines written before session 24 record neither)."""
+    machines = sorted({str(r["machine"]) for r in rows if r.get("machine")})
+    lines = [f"Machines: {'; '.join(machines)}.", ""] if machines else []
+    digests: dict[str, set[str]] = defaultdict(set)
+    for r in rows:
+        if r.get("data_digest"):
+            digests[r["method"]].add(str(r["data_digest"]))
+    for method, found in sorted(digests.items()):
+        if len(found) > 1:
+            lines += [
+                f"**Note:** {method}'s lines were trained on {len(found)} different datasets "
+                f"(data_digest {', '.join(sorted(found))}): same path, another regeneration.",
+                "",
+            ]
+    return lines
+
+
 def _main_setting(summary: dict[str, Any]) -> str | None:
     """The standard K=1 setting when there is one (the paper's figures), else the first."""
     main = next((s for s in summary["settings"] if s.startswith("standard, K=1")), None)
@@ -341,6 +361,7 @@ def _domain_report(
         "2024, 10 GPU-trained FB models, 1000 episodes, 20 draws.",
         "",
     ]
+    lines += _provenance(rows)
     for setting, methods in summary["settings"].items():
         lines += _setting_section(summary, setting, methods, out)
     main = _main_setting(summary)
