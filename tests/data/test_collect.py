@@ -82,3 +82,6 @@ def test_refuses_to_overwrite_or_to_resume_the_wrong_thing(tmp_path: Path) -> No
         collect("point_mass_maze", "curious", 4, tmp_path / "x", progress=False)
     manifest = json.loads((out / "manifest.json").read_text())
     assert manifest["domain"] == "point_mass_maze" and manifest["episodes"] == 2
+    from fbil.artifacts import machine
+
+    assert manifest["cpu"] == machine()  # which kind of CPU made the data (docs/datasets.md)
