@@ -123,7 +123,7 @@ def test_a_method_trained_on_two_regenerations_of_its_data_is_flagged(tmp_path: 
             same = r["method"] == "td3il" or i % 4 < 2
             r.update(data_digest="aaaa" if same else "bbbb", machine=f"CPU {i % 2}, AVX2")
     text = write_report(_write(tmp_path / "maze.jsonl", rows), tmp_path / "report").read_text()
-    assert "Machines: CPU 0, AVX2; CPU 1, AVX2." in text
+    assert "Machines: CPU 0, AVX2; CPU 1, AVX2 (16 of 24 lines, older ones, record none)." in text
     assert "sqil's lines were trained on 2 different datasets (data_digest aaaa, bbbb)" in text
     assert "td3il's lines were" not in text
     # Lines without the fields (before session 24) add nothing.

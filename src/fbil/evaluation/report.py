@@ -320,7 +320,9 @@ def _provenance(rows: Sequence[dict[str, Any]]) -> list[str]:
     trained on more than one dataset (a regeneration on another kind of CPU is a new sample
     of the recipe, not a copy; lines written before session 24 record neither)."""
     machines = sorted({str(r["machine"]) for r in rows if r.get("machine")})
-    lines = [f"Machines: {'; '.join(machines)}.", ""] if machines else []
+    unknown = sum(1 for r in rows if not r.get("machine"))
+    rest = f" ({unknown} of {len(rows)} lines, older ones, record none)" if unknown else ""
+    lines = [f"Machines: {'; '.join(machines)}{rest}.", ""] if machines else []
     digests: dict[str, set[str]] = defaultdict(set)
     for r in rows:
         if r.get("data_digest"):
