@@ -140,7 +140,7 @@ class Dataset:
         return self._rewards[task]
 
     def digest(self) -> str:
-        """16 hex digits of sha256 over the observations, actions and discounts: equal for
+        """16 hex digits of sha256 over observations, actions, discounts, episode starts: equal for
         two copies of one dataset, different for a regeneration that drifted (another CPU)."""
         if self._digest is None:
             h = hashlib.sha256()
