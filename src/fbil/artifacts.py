@@ -6,6 +6,7 @@ command that regenerates it."""
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import platform
@@ -27,6 +28,7 @@ def sha256(path: str | Path) -> str:
     return h.hexdigest()
 
 
+@functools.cache  # read /proc/cpuinfo once per process, not once per results line
 def machine() -> str:
     """The CPU this process runs on and torch's kernel level, e.g. `Intel(R) Xeon(R)
     Processor, AVX512`. Runs under one seed repeat exactly on one kind of CPU; on another
