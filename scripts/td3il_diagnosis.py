@@ -5,11 +5,13 @@ i.e. the same offline TD3 as an oracle), the data (`--max-episodes`: the first N
 of the dataset) and the number of gradient steps. Everything else is td3il's `cpu` budget;
 the demo is draw 0 of K = 1, as `fbil benchmark` draws it. `--eval-at N1,N2,..` also
 evaluates the policy after those updates of the same run (a budget curve for the price of
-its longest point), and `--hidden` sets the networks' width. One thread; prints one JSON
-line per evaluation.
+its longest point), and `--hidden` sets the networks' width. `--learner sac --reward true`
+trains the offline SAC of sqil and iqlearn (`fbil.baselines.sac`, sqil's `cpu` settings
+but `--steps`/`--hidden`) on the true reward instead: the oracle those two baselines need
+before a grid. One thread; prints one JSON line per evaluation.
 
 Usage: python scripts/td3il_diagnosis.py TASK [--ratio R] [--reward {01,true}] [--steps N]
-       [--eval-at N1,N2] [--hidden H] [--max-episodes N] [--episodes 20]
+       [--eval-at N1,N2] [--hidden H] [--max-episodes N] [--episodes 20] [--learner td3]
        [--domain point_mass_maze] [--data DIR] [--demos DIR]
 """
 
@@ -24,9 +26,10 @@ import numpy as np
 import torch
 
 from fbil.agents.td3 import TD3
-from fbil.baselines import td3il
+from fbil.baselines import sqil, td3il
 from fbil.baselines.common import TrainedPolicy, Transitions, demo_transitions
 from fbil.baselines.offline_td3 import agent_state, train_offline_td3
+from fbil.baselines.sac import SAC, train_sac
 from fbil.data import load_dataset
 from fbil.envs.rollout import rollout
 from fbil.evaluation.evaluate import demo_draw
@@ -46,7 +49,12 @@ def main() -> None:
     p.add_argument("--domain", default="point_mass_maze")
     p.add_argument("--data", default="datasets/point_mass_maze/rnd_uniform_1000_x4")
     p.add_argument("--demos", default="artifacts/demos/point_mass_maze")
+    p.add_argument("--learner", choices=["td3", "sac"], default="td3")
     args = p.parse_args()
+    if args.learner == "sac" and args.reward != "true":
+        p.error(
+            "--learner sac is the true-reward oracle: add --reward true (sqil is `fbil benchmark`)"
+        )
     torch.set_num_threads(1)
     data = load_dataset(args.data, max_episodes=args.max_episodes)
     cfg = dataclasses.replace(td3il.BUDGETS["cpu"].td3, steps=args.steps, hidden=args.hidden)
@@ -64,15 +72,20 @@ def main() -> None:
     started = time.time()
     eval_at = {int(n) for n in args.eval_at.split(",") if n}
 
-    def report(steps: int, agent: TD3, info: dict[str, float]) -> None:
+    def report(steps: int, agent: TD3 | SAC, info: dict[str, float]) -> None:
         seconds = time.time() - started
-        policy = TrainedPolicy("td3il", agent.act, agent_state(agent), info, agent.cfg.precision)
+        if isinstance(agent, SAC):
+            policy = TrainedPolicy("sqil", agent.act, agent.state(), info, agent.cfg.precision)
+        else:
+            state = agent_state(agent)
+            policy = TrainedPolicy("td3il", agent.act, state, info, agent.cfg.precision)
         returns = rollout(args.domain, args.task, policy, list(range(args.episodes)))
         ret = returns.reward.sum(-1)
         out = {
             "domain": args.domain,
             "task": args.task,
             "reward": args.reward,
+            "learner": args.learner,
             "ratio": args.ratio if expert else None,
             "steps": steps,
             "hidden": args.hidden,
@@ -84,10 +97,20 @@ def main() -> None:
         }
         print(json.dumps(out), flush=True)
 
-    def on_step(t: int, agent: TD3) -> None:
+    def on_step(t: int, agent: TD3 | SAC) -> None:
         if t in eval_at and t < args.steps:
             report(t, agent, {})
 
+    if args.learner == "sac":
+        sac_cfg = dataclasses.replace(sqil.BUDGETS["cpu"].sac, steps=args.steps, hidden=args.hidden)
+
+        def update(agent: SAC, batch: Transitions) -> dict[str, float]:
+            reward = label(batch).float()
+            return {**agent.update(batch, reward), "reward_mean": float(reward.mean())}
+
+        sac, info = train_sac(data, update, sac_cfg, 0, None, 0.0, on_step)
+        report(args.steps, sac, info)
+        return
     agent, info = train_offline_td3(
         data, label, cfg, 0, expert, args.ratio if expert else None, on_step
     )

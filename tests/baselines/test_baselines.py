@@ -322,3 +322,30 @@ def test_offline_td3_on_step_sees_every_update_and_the_final_agent(fixture_data:
     assert seen == [1, 2, 3, 4, 5] and agents == {id(agent)}
     _, plain = train_offline_td3(dataset, labels, cfg, 0)
     assert plain == info  # the same seed gives the same last update with or without it
+
+
+def test_sac_oracle_hook_and_no_expert_rows(fixture_data: Path) -> None:
+    """`train_sac(expert=None, on_step=...)` (the true-reward oracle of the diagnosis
+    script) samples dataset rows only, calls the hook after updates 1..steps, and gives
+    the same last update as a run without the hook."""
+    from fbil.baselines.sac import SAC, SACConfig, train_sac
+
+    dataset = load_dataset(fixture_data)
+    cfg = SACConfig(steps=4, hidden=16, batch_size=32)
+    seen: list[int] = []
+    experts: list[int] = []
+
+    def update(agent: SAC, batch: Transitions) -> dict[str, float]:
+        experts.append(int(batch.expert.sum()))
+        return agent.update(batch, torch.ones(len(batch.obs)))
+
+    agents: set[int] = set()
+
+    def on_step(t: int, agent: SAC) -> None:
+        seen.append(t)
+        agents.add(id(agent))
+
+    agent, info = train_sac(dataset, update, cfg, 0, None, 0.0, on_step)
+    assert seen == [1, 2, 3, 4] and experts == [0, 0, 0, 0] and agents == {id(agent)}
+    _, plain = train_sac(dataset, update, cfg, 0, None, 0.0)
+    assert plain == info

@@ -141,13 +141,23 @@ Update = Callable[[SAC, Transitions], dict[str, float]]  # one update on a minib
 
 
 def train_sac(
-    dataset: Any, update: Update, cfg: SACConfig, seed: int, expert: Transitions, ratio: float
+    dataset: Any,
+    update: Update,
+    cfg: SACConfig,
+    seed: int,
+    expert: Transitions | None,
+    ratio: float,
+    on_step: Callable[[int, SAC], None] | None = None,
 ) -> tuple[SAC, dict[str, float]]:
     """A SAC agent trained by `cfg.steps` calls of `update` on minibatches holding a share
-    `ratio` of expert rows; the agent and the last update's numbers."""
+    `ratio` of expert rows (none when `expert` is None: an oracle on relabeled data); the
+    agent and the last update's numbers. `on_step(t, agent)` runs after update t
+    (1-based), as in `train_offline_td3`."""
     agent = SAC(dataset, cfg, seed)
     sample = MixedSampler(dataset, expert, cfg.batch_size, ratio, agent.gen)
     last: dict[str, float] = {}
-    for _ in range(cfg.steps):
+    for t in range(1, cfg.steps + 1):
         last = update(agent, sample())
+        if on_step is not None:
+            on_step(t, agent)
     return agent, {k: round(v, 5) for k, v in last.items()}
