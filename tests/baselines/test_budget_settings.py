@@ -99,15 +99,15 @@ def test_a_budget_with_settings_is_the_scaled_budget_with_them_applied() -> None
         return dict(smodice.settings(FitContext(budget=spec))["config"])
 
     cpu = config("cpu")
-    assert cpu["dual"]["divergence"] == "chi2"  # SMODICE's own
-    changed = config("cpu@0.5,dual.divergence=kl,discriminator.steps=7")
-    assert changed["dual"]["divergence"] == "kl"
+    assert cpu["dual"]["divergence"] == "kl"  # SMODICE's default since session 25
+    changed = config("cpu@0.5,dual.divergence=chi2,discriminator.steps=7")
+    assert changed["dual"]["divergence"] == "chi2"
     assert changed["dual"]["steps"] == cpu["dual"]["steps"] // 2  # scaled
     assert changed["discriminator"]["steps"] == 7  # a changed step count is absolute
     rest = {k: v for k, v in changed["dual"].items() if k not in ("divergence", "steps")}
     assert rest == {k: v for k, v in cpu["dual"].items() if k not in ("divergence", "steps")}
-    assert smodice.settings(FitContext(budget="cpu,dual.divergence=kl"))["budget"] == (
-        "cpu,dual.divergence=kl"
+    assert smodice.settings(FitContext(budget="cpu,dual.divergence=chi2"))["budget"] == (
+        "cpu,dual.divergence=chi2"
     )
 
 
