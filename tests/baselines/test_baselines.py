@@ -349,3 +349,27 @@ def test_sac_oracle_hook_and_no_expert_rows(fixture_data: Path) -> None:
     assert seen == [1, 2, 3, 4] and experts == [0, 0, 0, 0] and agents == {id(agent)}
     _, plain = train_sac(dataset, update, cfg, 0, None, 0.0)
     assert plain == info
+
+
+def test_time_to_policy_projects_each_baseline_from_small_scales(
+    fixture_data: Path, demos_dir: Path
+) -> None:
+    """benchmarks/time_to_policy.py --baselines: the line through the medians at two scales
+    is exact on a line, and each trained baseline gets medians and a projection at scale 1;
+    a method with nothing to train (goal_td3) is left out."""
+    from tests.script_module import SCRIPTS, load_script
+
+    bench = load_script("time_to_policy", SCRIPTS.parent / "benchmarks")
+    assert bench.line_through([0.01, 0.02, 0.04], [3.0, 5.0, 9.0]) == pytest.approx((1.0, 200.0))
+    with pytest.raises(ValueError):
+        bench.line_through([0.5, 0.5], [1.0, 2.0])
+    demos = Demos.load(demos_dir / "square.npz").select([0])
+    out = bench.baseline_timings(
+        ["bc", "goal_td3"], demos, load_dataset(fixture_data), "smoke", [1.0, 2.0], 1
+    )
+    assert list(out) == ["bc"]
+    row = out["bc"]
+    assert list(row["median_seconds"]) == ["1.0", "2.0"] and row["budget"] == "smoke"
+    slope = row["median_seconds"]["2.0"] - row["median_seconds"]["1.0"]
+    assert row["projected_seconds"] == pytest.approx(row["median_seconds"]["1.0"])
+    assert row["fixed_seconds"] == pytest.approx(row["median_seconds"]["1.0"] - slope)
