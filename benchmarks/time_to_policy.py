@@ -25,6 +25,7 @@ import argparse
 import dataclasses
 import json
 import statistics
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -162,7 +163,11 @@ def main() -> None:
     model = FBModel.load(args.model)
     demos = Demos.load(args.demos).select([0])
     result: dict[str, Any] = {
+        "command": " ".join(["python benchmarks/time_to_policy.py", *sys.argv[1:]]),
+        "domain": demos.metadata.get("domain"),
+        "demos": args.demos,
         "demo_steps": len(demos.trajectories[0]),
+        "baseline_repeats": args.baseline_repeats,
         "threads": torch.get_num_threads(),
         "repeats": args.repeats,
         "machine": machine(),

@@ -115,6 +115,53 @@ def test_domain_report_shows_families_baseline_returns_and_times(tmp_path: Path)
     assert "## Over domains" not in text
 
 
+def test_one_run_timing_next_to_the_results_adds_its_table(tmp_path: Path) -> None:
+    """A time_to_policy.json of the domain (benchmarks/time_to_policy.py --baselines --json)
+    adds the like-for-like table: FB-IL medians and baselines' projections, with their
+    ratio to the FB-IL median; one of another domain, or none, adds nothing."""
+    results = _write(tmp_path / "maze.jsonl", _maze_rows())
+    timing = {
+        "command": "python benchmarks/time_to_policy.py --baselines bc,sqil",
+        "domain": "point_mass_maze",
+        "machine": "CPU X, AVX2",
+        "threads": 1,
+        "repeats": 10,
+        "baseline_repeats": 3,
+        "demo_steps": 1000,
+        "methods": {"erfb": {"median_seconds": 0.004}, "bcfb": {"median_seconds": 0.016}},
+        "baselines": {
+            "sqil": {
+                "budget": "cpu",
+                "median_seconds": {"0.01": 9.0, "0.02": 18.0},
+                "fixed_seconds": 0.0,
+                "projected_seconds": 900.0,
+            },
+            "bc": {
+                "budget": "cpu",
+                "median_seconds": {"0.01": 1.0, "0.02": 2.0},
+                "fixed_seconds": 0.0,
+                "projected_seconds": 100.0,
+            },
+        },
+    }
+    plain = write_report(results, tmp_path / "r0").read_text()
+    assert "measured in one run" not in plain
+    (tmp_path / "time_to_policy.json").write_text(json.dumps(timing))
+    text = write_report(results, tmp_path / "r1").read_text()
+    assert "### Time to policy, measured in one run on one machine" in text
+    assert "on CPU X, AVX2 with 1 thread(s)" in text and "scales 0.01, 0.02" in text
+    # FB-IL median 0.01 s: erfb 0.4 x, bc 10 000 x, sqil 90 000 x, fastest baseline first.
+    assert "| erfb | fb-il | 4 ms | 0.004 | 0.4 | <5s |" in text
+    assert text.index("| bc (cpu) |") < text.index("| sqil (cpu) |")
+    assert "| bc (cpu) | offline-il | 100 s | 100 | 10,000 | 3h14m |" in text
+    assert "| sqil (cpu) | offline-il | 15 min | 900 | 90,000 | 10h18m |" in text
+    (tmp_path / "time_to_policy.json").write_text(json.dumps({**timing, "domain": "walker"}))
+    assert "measured in one run" not in write_report(results, tmp_path / "r2").read_text()
+    (tmp_path / "time_to_policy.json").write_text("{not json")
+    with pytest.raises(FbilError, match=r"time_to_policy\.json is not valid JSON"):
+        write_report(results, tmp_path / "r3")
+
+
 def test_a_method_trained_on_two_regenerations_of_its_data_is_flagged(tmp_path: Path) -> None:
     rows = _maze_rows()
     for i, r in enumerate(rows):

@@ -47,6 +47,7 @@ from fbil.evaluation.paper import (
     paper_score,
 )
 from fbil.evaluation.seeds import find_seeds, seeds_section
+from fbil.evaluation.timing import find_timing, timing_section
 from fbil.imitators import family_of, principle_of
 
 
@@ -371,6 +372,9 @@ def _domain_report(
         lines += _impossible_section(domain, summary["settings"][main])
         lines += _groups_section(summary, main, out)
         lines += _time_section(summary, main, out)
+        timing = find_timing(files, domain)  # benchmarks/time_to_policy.py --baselines
+        if timing is not None:
+            lines += timing_section(timing)
         if curve is not None and curve.get("domain") == domain:
             lines += curve_section(curve, out)  # the baselines' score against budget
         lines += _limits_section(rows, summary["settings"][main], domain, main)
