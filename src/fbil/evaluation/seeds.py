@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from fbil.errors import FbilError
+from fbil.evaluation.sidecar import find_sidecar
 
 SEEDS_FILE = "seeds.json"
 MAIN_SETTING = "standard, K=1"
@@ -142,16 +143,7 @@ def write_seeds(seeds: dict[str, Any], out: str | Path) -> Path:
 
 def find_seeds(files: Sequence[str | Path], domain: str) -> dict[str, Any] | None:
     """The seeds.json next to one of the results files, if it is of `domain`."""
-    for f in files:
-        path = Path(f).parent / SEEDS_FILE
-        if path.is_file():
-            try:
-                seeds: dict[str, Any] = json.loads(path.read_text())
-            except ValueError:
-                raise FbilError(f"{path} is not valid JSON; rerun scripts/model_seeds.py") from None
-            if seeds.get("domain") == domain:
-                return seeds
-    return None
+    return find_sidecar(files, SEEDS_FILE, domain, "rerun scripts/model_seeds.py")
 
 
 def _pct(x: float) -> str:

@@ -5,33 +5,22 @@ different machines); this table is the like-for-like comparison #22 asks for."""
 
 from __future__ import annotations
 
-import json
 import statistics
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from fbil.errors import FbilError
 from fbil.evaluation.families import duration
 from fbil.evaluation.paper import PAPER_TIMES
+from fbil.evaluation.sidecar import find_sidecar
 
 TIMING_FILE = "time_to_policy.json"
 
 
 def find_timing(files: Sequence[str | Path], domain: str) -> dict[str, Any] | None:
     """The time_to_policy.json next to one of the results files, if it is of `domain`."""
-    for f in files:
-        path = Path(f).parent / TIMING_FILE
-        if path.is_file():
-            try:
-                timing: dict[str, Any] = json.loads(path.read_text())
-            except ValueError:
-                raise FbilError(
-                    f"{path} is not valid JSON; rerun benchmarks/time_to_policy.py --json"
-                ) from None
-            if timing.get("domain") == domain:
-                return timing
-    return None
+    remedy = "rerun benchmarks/time_to_policy.py --json"
+    return find_sidecar(files, TIMING_FILE, domain, remedy)
 
 
 def timing_section(timing: dict[str, Any]) -> list[str]:
