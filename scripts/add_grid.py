@@ -24,21 +24,15 @@ from typing import Any
 from fbil.checkpoint import atomic_write_text
 from fbil.envs.registry import get_domain
 from fbil.errors import FbilError
+from fbil.evaluation.benchmark import read_results
 
 
-def read_lines(path: Path) -> list[tuple[dict[str, Any], str]]:
-    """Each line of a JSON-lines file, parsed and as written (kept lines stay byte for byte)."""
+def read_lines(path: Path) -> list[dict[str, Any]]:
+    """The lines of a results file (`read_results`, which refuses a bad line); a missing
+    grid file is an error, not an empty grid."""
     if not path.is_file():
         raise FbilError(f"{path}: no such file; pass the --out file(s) of `fbil benchmark`")
-    rows = []
-    for n, text in enumerate(path.read_text().splitlines(), 1):
-        if not text.strip():
-            continue
-        try:
-            rows.append((json.loads(text), text))
-        except json.JSONDecodeError as e:
-            raise FbilError(f"{path}:{n}: not a JSON line ({e.msg}); fix or remove it") from None
-    return rows
+    return read_results(path, repair=False)
 
 
 def one(rows: list[dict[str, Any]], field: str) -> Any:
@@ -103,14 +97,13 @@ def add_grid(
 ) -> str:
     """Check the grid, write RESULTS with it (and REPLACED_TO with the method's old lines);
     the one-line summary."""
-    new = [line for g in grids for line in read_lines(g)]
-    rows = [r for r, _ in new]
+    rows = [r for g in grids for r in read_lines(g)]
     grid = check_grid(rows, draws)
     old = read_lines(results) if results.exists() else []
-    if old and {r.get("domain") for r, _ in old} != {grid["domain"]}:
+    if old and {r.get("domain") for r in old} != {grid["domain"]}:
         raise FbilError(f"{results} holds results of another domain than {grid['domain']}")
-    kept = [text for r, text in old if r.get("method") != grid["method"]]
-    moved = [text for r, text in old if r.get("method") == grid["method"]]
+    kept = [r for r in old if r.get("method") != grid["method"]]
+    moved = [r for r in old if r.get("method") == grid["method"]]
     if moved and replaced_to is None:
         raise FbilError(
             f"{results} already holds {len(moved)} {grid['method']} lines; pass --replaced-to "
@@ -119,8 +112,8 @@ def add_grid(
     if moved and replaced_to is not None:
         if replaced_to.exists():
             raise FbilError(f"{replaced_to} exists; name a new file for the replaced lines")
-        atomic_write_text(replaced_to, "".join(t + "\n" for t in moved))
-    atomic_write_text(results, "".join(t + "\n" for t in kept + [t for _, t in new]))
+        atomic_write_text(replaced_to, "".join(json.dumps(r) + "\n" for r in moved))
+    atomic_write_text(results, "".join(json.dumps(r) + "\n" for r in kept + rows))
     head = (
         f"{grid['method']} on {grid['domain']}: {len(rows)} lines, budget {grid['budget']}, "
         f"data {grid['digest']}"
