@@ -191,3 +191,32 @@ def test_a_model_without_a_recorded_discount_is_refused_by_imitation() -> None:
     with pytest.raises(FbilError, match="records no training discount"):
         _ = model.gamma
     assert FBModel(model.config, {"train_config": {"gamma": 0.97}}).gamma == 0.97
+
+
+def test_independent_f_heads_share_no_parameter_and_survive_save_load(tmp_path: Path) -> None:
+    """f_heads="independent": each head's output depends on its own embeddings only (the
+    gradient of head 1 leaves head 0's untouched, and vice versa), the heads differ, and
+    the saved model loads back to the same outputs; "shared" keeps the old parameter names."""
+    cfg = FBModelConfig(obs_dim=4, act_dim=2, z_dim=6, b_hidden=8, f_hidden=8, f_embed=4)
+    shared = FBModel(cfg)
+    assert hasattr(shared.forward_net, "sa") and not hasattr(shared.forward_net, "sa_heads")
+    model = FBModel(FBModelConfig(**{**cfg.__dict__, "f_heads": "independent"}))
+    f = model.forward_net
+    obs, z, act = torch.randn(5, 4), torch.randn(5, 6), torch.rand(5, 2)
+    out = f(obs, z, act)
+    assert out.shape == (2, 5, 6) and not torch.allclose(out[0], out[1])
+    for k in (0, 1):
+        f.zero_grad()
+        out = f(obs, z, act)
+        out[k].sum().backward()
+        for emb in (f.sa_heads, f.sz_heads):
+            assert all(p.grad is not None and p.grad.abs().sum() > 0 for p in emb[k].parameters())
+            assert all(p.grad is None or p.grad.abs().sum() == 0 for p in emb[1 - k].parameters())
+    model.save(tmp_path / "indep")
+    back = FBModel.load(tmp_path / "indep")
+    assert back.config.f_heads == "independent"
+    torch.testing.assert_close(
+        back.forward(obs, z, act, heads="both"), model.forward(obs, z, act, heads="both")
+    )
+    with pytest.raises(FbilError, match="unknown f_heads 'triple'; valid: shared, independent"):
+        FBModelConfig(obs_dim=4, act_dim=2, f_heads="triple")  # type: ignore[arg-type]

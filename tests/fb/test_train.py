@@ -1,6 +1,7 @@
 """Exact resumption: N steps straight == N/2, SIGKILL, resume, N/2."""
 
 import json
+import math
 import os
 import re
 import shutil
@@ -410,3 +411,33 @@ def test_orthogonal_init_starts_every_linear_layer_orthonormal_with_zero_biases(
     trainer.update()
     default = _smoke_trainer(fixture_data)
     assert torch.count_nonzero(default.model.forward_net.heads.biases[0]) > 0
+
+
+def test_independent_f_heads_train_with_a_mean_target_and_orthogonal_init(
+    fixture_data: Path,
+) -> None:
+    """Meta's F (two independent networks, mean target) trains through the same update:
+    both heads' embeddings move, the orthogonal init reaches them, and the losses stay
+    finite."""
+    import dataclasses
+
+    from fbil.data import load_dataset
+    from fbil.fb.config import preset
+    from fbil.fb.train import FBTrainer
+
+    model_cfg, train_cfg = preset("point_mass_maze", "smoke")
+    trainer = FBTrainer(
+        dataclasses.replace(model_cfg, f_heads="independent"),
+        dataclasses.replace(train_cfg, target_heads="mean", init="orthogonal"),
+        load_dataset(fixture_data),
+    )
+    f = trainer.model.forward_net
+    first = [emb[k][0].weight for emb in (f.sa_heads, f.sz_heads) for k in (0, 1)]
+    for w in first:
+        gram = w @ w.T if w.shape[0] <= w.shape[1] else w.T @ w
+        torch.testing.assert_close(gram, torch.eye(gram.shape[0]), atol=1e-5, rtol=0)
+    before = [w.detach().clone() for w in first]
+    for _ in range(3):
+        metrics = trainer.update()
+    assert all(math.isfinite(float(v)) for v in metrics.values())
+    assert all(not torch.equal(b, w) for b, w in zip(before, first, strict=True))

@@ -15,6 +15,7 @@ Precision = Literal["fp32", "bf16"]
 TargetHeads = Literal["min", "mean"]
 ActorClamp = Literal["hard", "straight_through"]
 Init = Literal["torch", "orthogonal"]
+FHeads = Literal["shared", "independent"]
 
 
 @dataclass(frozen=True)
@@ -31,6 +32,15 @@ class FBModelConfig:
     # maze's positions span +-0.3 next to z and actions of unit scale; raw, they barely
     # move the first layers, and the values learned in 30k steps ignored the walls.
     normalize_obs: bool = False
+    # F's two heads: "shared" embeddings with two output MLPs (the paper's and Touati et
+    # al.'s code), or "independent", two whole F networks, embeddings included (Meta's
+    # metamotivo `ForwardMap` with two parallel members), so the heads' errors are less
+    # correlated and a mean target (`target_heads="mean"`) is less redundant.
+    f_heads: FHeads = "shared"
+
+    def __post_init__(self) -> None:
+        if self.f_heads not in ("shared", "independent"):
+            raise FbilError(f"unknown f_heads {self.f_heads!r}; valid: shared, independent")
 
 
 @dataclass(frozen=True)

@@ -77,8 +77,8 @@ class TwinHead(nn.Module):
             self.biases.append(nn.Parameter(torch.empty(k, 1, fan_out).uniform_(-bound, bound)))
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
-        """x: (N, inp) -> (k, N, out)."""
-        h = x.unsqueeze(0).expand(self.k, *x.shape)
+        """x: (N, inp), one input for all heads, or (k, N, inp), one per head -> (k, N, out)."""
+        h = x if x.dim() == 3 else x.unsqueeze(0).expand(self.k, *x.shape)
         last = len(self.weights) - 1
         for i, (w, b) in enumerate(zip(self.weights, self.biases, strict=True)):
             h = torch.baddbmm(b, h, w)
@@ -130,19 +130,34 @@ class BackwardNet(nn.Module):
 
 
 class ForwardNet(nn.Module):
+    """F's two heads over shared (s, a) and (s, z) embeddings, or (`f_heads="independent"`)
+    each head with embeddings of its own, so no parameter is common to the two."""
+
     def __init__(self, cfg: FBModelConfig) -> None:
         super().__init__()
         h, e = cfg.f_hidden, cfg.f_embed
         self.obs_norm = obs_norm(cfg)
-        self.sa = embedding(cfg.obs_dim + cfg.act_dim, h, e)
-        self.sz = embedding(cfg.obs_dim + cfg.z_dim, h, e)
+        self.independent = cfg.f_heads == "independent"
+        if self.independent:
+            self.sa_heads = nn.ModuleList(
+                embedding(cfg.obs_dim + cfg.act_dim, h, e) for _ in range(2)
+            )
+            self.sz_heads = nn.ModuleList(
+                embedding(cfg.obs_dim + cfg.z_dim, h, e) for _ in range(2)
+            )
+        else:
+            self.sa = embedding(cfg.obs_dim + cfg.act_dim, h, e)
+            self.sz = embedding(cfg.obs_dim + cfg.z_dim, h, e)
         self.heads = TwinHead(2 * e, h, cfg.z_dim, layers=2 if cfg.extra_layer else 1)
 
     def forward(self, obs: torch.Tensor, z: torch.Tensor, action: torch.Tensor) -> torch.Tensor:
         """(2, N, d): both heads."""
         obs = self.obs_norm(obs)
-        x = torch.cat([self.sa(torch.cat([obs, action], -1)), self.sz(torch.cat([obs, z], -1))], -1)
-        return self.heads(x)
+        sa, sz = torch.cat([obs, action], -1), torch.cat([obs, z], -1)
+        if self.independent:
+            pairs = zip(self.sa_heads, self.sz_heads, strict=True)
+            return self.heads(torch.stack([torch.cat([f(sa), g(sz)], -1) for f, g in pairs]))
+        return self.heads(torch.cat([self.sa(sa), self.sz(sz)], -1))
 
 
 class Actor(nn.Module):
