@@ -61,3 +61,19 @@ def test_committed_artifacts_match_their_manifests(folder: str) -> None:
     root = ARTIFACTS / folder
     body = verify(root)
     assert body["sha256"] and body["command"].startswith(("fbil ", "scripts/", "python "))
+
+
+def test_the_committed_walker_model_is_what_the_cpu_preset_trains() -> None:
+    """`fbil pretrain walker --preset cpu` must reproduce the committed model's settings
+    (its manifest says so): every model and training setting but the snapshot interval."""
+    import dataclasses
+
+    from fbil.config import config_from_dict
+    from fbil.fb.config import FBModelConfig, FBTrainConfig, preset
+
+    saved = json.loads((Path("artifacts/models/walker") / "config.json").read_text())
+    model_cfg, train_cfg = preset("walker", "cpu")
+    assert config_from_dict(FBModelConfig, saved["model"]) == model_cfg
+    trained = config_from_dict(FBTrainConfig, saved["train_config"])
+    assert dataclasses.replace(trained, snapshot_every=0) == train_cfg
+    assert verify(Path("artifacts/models/walker"))["steps"] == train_cfg.steps
