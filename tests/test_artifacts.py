@@ -71,9 +71,10 @@ def test_the_committed_walker_model_is_what_the_cpu_preset_trains() -> None:
     from fbil.config import config_from_dict
     from fbil.fb.config import FBModelConfig, FBTrainConfig, preset
 
-    saved = json.loads((Path("artifacts/models/walker") / "config.json").read_text())
+    folder = ARTIFACTS / "models" / "walker"
+    saved = json.loads((folder / "config.json").read_text())
     model_cfg, train_cfg = preset("walker", "cpu")
     assert config_from_dict(FBModelConfig, saved["model"]) == model_cfg
     trained = config_from_dict(FBTrainConfig, saved["train_config"])
     assert dataclasses.replace(trained, snapshot_every=0) == train_cfg
-    assert verify(Path("artifacts/models/walker"))["steps"] == train_cfg.steps
+    assert verify(folder)["steps"] == train_cfg.steps

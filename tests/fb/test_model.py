@@ -1,3 +1,4 @@
+import dataclasses
 import json
 import math
 import shutil
@@ -200,7 +201,7 @@ def test_independent_f_heads_share_no_parameter_and_survive_save_load(tmp_path: 
     cfg = FBModelConfig(obs_dim=4, act_dim=2, z_dim=6, b_hidden=8, f_hidden=8, f_embed=4)
     shared = FBModel(cfg)
     assert hasattr(shared.forward_net, "sa") and not hasattr(shared.forward_net, "sa_heads")
-    model = FBModel(FBModelConfig(**{**cfg.__dict__, "f_heads": "independent"}))
+    model = FBModel(dataclasses.replace(cfg, f_heads="independent"))
     f = model.forward_net
     obs, z, act = torch.randn(5, 4), torch.randn(5, 6), torch.rand(5, 2)
     out = f(obs, z, act)
