@@ -7,6 +7,13 @@ several ways of inferring z, and print each z's return and its cosine with z_r.
              policy for the exact model; z no longer leans on E[B])
   ERFB       E_demo[B(s')] from the task's first committed demonstration (fbil's erfb)
   demo r     E_demo[r(s') B(s')]: the demo's states weighted by their true reward
+  ERFB-nn    ERFB with each demo state replaced by its nearest dataset state (Euclidean
+             distance after scaling each observation coordinate by the dataset's std)
+
+If ERFB-nn does much better than ERFB, B extrapolates badly at the demo's own states
+(they lie off the data), and the demo-to-z map, not the policies, is what fails. The
+probe also prints how far the demo's states lie from the data, next to how far dataset
+states lie from their nearest other dataset state.
 
 If the demo-based z's do well where z_r fails, the model's policies can do the task and
 the dataset's reward-weighted average of B is what misleads z_r; the reverse points at
@@ -32,11 +39,26 @@ from fbil.imitation.core import prepare
 from fbil.imitation.demos import Demos
 from fbil.imitation.methods.reward import erfb
 
-NAMES = ("z_r", "z_r>=0.5", "z_r-mean", "ERFB", "demo r")
+NAMES = ("z_r", "z_r>=0.5", "z_r-mean", "ERFB", "demo r", "ERFB-nn")
 
 
-def task_zs(model: FBModel, b: torch.Tensor, reward: torch.Tensor, demos: Demos) -> dict:
-    """The z's of the module's doc for one task."""
+def nearest(queries: torch.Tensor, points: torch.Tensor, chunk: int = 65_536) -> tuple:
+    """Index of and distance to each query's nearest point (brute force, in chunks)."""
+    best = torch.full((len(queries),), float("inf"))
+    idx = torch.zeros(len(queries), dtype=torch.long)
+    for i in range(0, len(points), chunk):
+        d = torch.cdist(queries, points[i : i + chunk])
+        m, j = d.min(1)
+        better = m < best
+        best = torch.where(better, m, best)
+        idx = torch.where(better, j + i, idx)
+    return idx, best
+
+
+def task_zs(
+    model: FBModel, b: torch.Tensor, reward: torch.Tensor, demos: Demos, nn_b: torch.Tensor
+) -> dict:
+    """The z's of the module's doc for one task; nn_b: B of each demo state's neighbour."""
     well_paid = (reward >= 0.5).float()
     batch = prepare(model, demos, gamma=model.gamma)
     z_er, _ = erfb(model, batch)
@@ -47,6 +69,7 @@ def task_zs(model: FBModel, b: torch.Tensor, reward: torch.Tensor, demos: Demos)
         "z_r-mean": model.project_z(((reward - reward.mean()) * b).mean(0)),
         "ERFB": z_er,
         "demo r": model.project_z((batch.weight * demo_r) @ batch.b_next),
+        "ERFB-nn": model.project_z(batch.weight @ nn_b),
     }
 
 
@@ -63,12 +86,21 @@ def main() -> None:
     model, data = FBModel.load(args.model), load_dataset(args.data)
     tasks = get_domain(data.domain).task_names if args.tasks == "all" else args.tasks.split(",")
     b = dataset_backward(model, data)
+    nxt = torch.as_tensor(np.asarray(data.observation[data.next_index], np.float32))
+    scale = nxt.std(0).clamp_min(1e-6)
+    points = nxt / scale
+    probe = torch.randperm(len(points), generator=torch.Generator().manual_seed(0))[:500]
+    rest = torch.ones(len(points), dtype=torch.bool)
+    rest[probe] = False
+    _, d_self = nearest(points[probe], points[rest])
     seeds = [10_000 + i for i in range(args.episodes)]
     print("task".ljust(10) + "".join(n.rjust(20) for n in NAMES))
     for task in tasks:
         reward = torch.from_numpy(data.reward(task)).reshape(-1, 1)
         demos = Demos.load(Path(args.demos) / f"{task}.npz").select([0])
-        zs = task_zs(model, b, reward, demos)
+        demo_next = torch.as_tensor(np.asarray(demos.trajectories[0].observation[1:], np.float32))
+        idx, dist = nearest(demo_next / scale, points)
+        zs = task_zs(model, b, reward, demos, b[idx])
         cells = []
         for name in NAMES:
             z = zs[name]
@@ -76,6 +108,12 @@ def main() -> None:
             cos = float(z @ zs["z_r"] / (z.norm() * zs["z_r"].norm()))
             cells.append(f"{ret:7.1f} (cos {cos:5.2f})")
         print(task.ljust(10) + "".join(c.rjust(20) for c in cells), flush=True)
+        print(
+            f"{'':10}demo-to-data distance median {dist.median():.2f} "
+            f"(p90 {dist.quantile(0.9):.2f}); data-to-data median {d_self.median():.2f} "
+            f"(p90 {d_self.quantile(0.9):.2f})",
+            flush=True,
+        )
 
 
 if __name__ == "__main__":
