@@ -7,8 +7,13 @@ several ways of inferring z, and print each z's return and its cosine with z_r.
              policy for the exact model; z no longer leans on E[B])
   ERFB       E_demo[B(s')] from the task's first committed demonstration (fbil's erfb)
   demo r     E_demo[r(s') B(s')]: the demo's states weighted by their true reward
+  ERFB-c     E_demo[B(s')] - E_rho[B(s')]: ERFB's reward rho_e/rho minus its mean 1 (the
+             same optimal policy for the exact model)
   ERFB-nn    ERFB with each demo state replaced by its nearest dataset state (Euclidean
              distance after scaling each observation coordinate by the dataset's std)
+
+Each cell also gives corr, the correlation over the dataset between the z's implied reward
+B(s')^T z and the task's true reward (z_r's is the best a linear reward in B can do).
 
 If ERFB-nn does much better than ERFB, B extrapolates badly at the demo's own states
 (they lie off the data), and the demo-to-z map, not the policies, is what fails. The
@@ -25,6 +30,7 @@ Usage: python scripts/z_probe.py MODEL --data DIR --demos DIR [--tasks all] [--e
 from __future__ import annotations
 
 import argparse
+import json
 from pathlib import Path
 
 import numpy as np
@@ -39,7 +45,7 @@ from fbil.imitation.core import prepare
 from fbil.imitation.demos import Demos
 from fbil.imitation.methods.reward import erfb
 
-NAMES = ("z_r", "z_r>=0.5", "z_r-mean", "ERFB", "demo r", "ERFB-nn")
+NAMES = ("z_r", "z_r>=0.5", "z_r-mean", "ERFB", "demo r", "ERFB-c", "ERFB-nn")
 
 
 def nearest(queries: torch.Tensor, points: torch.Tensor, chunk: int = 65_536) -> tuple:
@@ -69,6 +75,7 @@ def task_zs(
         "z_r-mean": model.project_z(((reward - reward.mean()) * b).mean(0)),
         "ERFB": z_er,
         "demo r": model.project_z((batch.weight * demo_r) @ batch.b_next),
+        "ERFB-c": model.project_z(batch.weight @ batch.b_next - b.mean(0)),
         "ERFB-nn": model.project_z(batch.weight @ nn_b),
     }
 
@@ -81,6 +88,7 @@ def main() -> None:
     p.add_argument("--tasks", default="all")
     p.add_argument("--episodes", type=int, default=10)
     p.add_argument("--threads", type=int, default=1)
+    p.add_argument("--json", default=None, help="also write the table to this JSON file")
     args = p.parse_args()
     torch.set_num_threads(args.threads)
     model, data = FBModel.load(args.model), load_dataset(args.data)
@@ -94,19 +102,27 @@ def main() -> None:
     rest[probe] = False
     _, d_self = nearest(points[probe], points[rest])
     seeds = [10_000 + i for i in range(args.episodes)]
+    print("return (cosine to z_r, correlation of B^T z with the reward over the data)")
     print("task".ljust(10) + "".join(n.rjust(20) for n in NAMES))
+    table: dict = {"model": args.model, "data": args.data, "demos": args.demos, "tasks": {}}
+    table["data_nn_distance"] = {
+        "median": float(d_self.median()),
+        "p90": float(d_self.quantile(0.9)),
+    }
     for task in tasks:
         reward = torch.from_numpy(data.reward(task)).reshape(-1, 1)
         demos = Demos.load(Path(args.demos) / f"{task}.npz").select([0])
         demo_next = torch.as_tensor(np.asarray(demos.trajectories[0].observation[1:], np.float32))
         idx, dist = nearest(demo_next / scale, points)
         zs = task_zs(model, b, reward, demos, b[idx])
-        cells = []
+        cells, row = [], {}
         for name in NAMES:
             z = zs[name]
             ret = float(np.mean(rollout(data.domain, task, FBPolicy(model, z), seeds).returns))
             cos = float(z @ zs["z_r"] / (z.norm() * zs["z_r"].norm()))
-            cells.append(f"{ret:7.1f} (cos {cos:5.2f})")
+            corr = float(np.corrcoef((b @ z).numpy(), reward[:, 0].numpy())[0, 1])
+            cells.append(f"{ret:7.1f} ({cos:5.2f} {corr:5.2f})")
+            row[name] = {"return_mean": ret, "cos_z_r": cos, "corr_reward": corr}
         print(task.ljust(10) + "".join(c.rjust(20) for c in cells), flush=True)
         print(
             f"{'':10}demo-to-data distance median {dist.median():.2f} "
@@ -114,6 +130,10 @@ def main() -> None:
             f"(p90 {d_self.quantile(0.9):.2f})",
             flush=True,
         )
+        row["demo_nn_distance"] = {"median": float(dist.median()), "p90": float(dist.quantile(0.9))}
+        table["tasks"][task] = row
+    if args.json:
+        Path(args.json).write_text(json.dumps(table, indent=1) + "\n")
 
 
 if __name__ == "__main__":

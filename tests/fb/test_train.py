@@ -313,12 +313,58 @@ def test_mean_of_b_rows_are_subset_means_and_other_rows_unchanged(fixture_data: 
     assert b.use_mean is None and torch.equal(a.use_b, b.use_b) and torch.equal(a.obs, b.obs)
 
 
+def test_trajectory_rows_are_means_of_b_over_one_episode_segment(fixture_data: Path) -> None:
+    """z_from_traj_ratio: the chosen rows' z is the projected mean of B over states of one
+    episode (never across an episode's end); with the ratio at 0 every draw stays as before;
+    batch-norm B refuses the option with a one-line error."""
+    import dataclasses
+
+    from fbil.data import load_dataset
+    from fbil.errors import FbilError
+    from fbil.fb.config import preset
+    from fbil.fb.train import TRAJ_Z_STATES, FBTrainer
+
+    model_cfg, train_cfg = preset("point_mass_maze", "smoke")
+    data = load_dataset(fixture_data)
+    l2 = dataclasses.replace(model_cfg, b_norm="l2")
+    cfg = dataclasses.replace(train_cfg, z_from_traj_ratio=0.4, precision="fp32")
+    trainer = FBTrainer(l2, cfg, data)
+    batch = trainer.sample()
+    assert batch.use_traj is not None and batch.traj_obs is not None
+    assert batch.traj_obs.shape == (cfg.batch_size, TRAJ_Z_STATES, model_cfg.obs_dim)
+    rows = batch.use_traj
+    assert bool(rows.any()) and not bool((rows & batch.use_b).any())
+    # Every row's states come from one episode: map each observation back to its episode.
+    obs = torch.from_numpy(data.observation)
+    nxt = torch.from_numpy(data.next_index)
+    episode_of_obs = torch.full((len(obs),), -1)
+    starts = torch.cat([torch.tensor([0]), torch.nonzero(nxt[1:] != nxt[:-1] + 1).flatten() + 1])
+    for e, s0 in enumerate(starts.tolist()):
+        end = starts[e + 1].item() if e + 1 < len(starts) else len(nxt)
+        episode_of_obs[nxt[s0:end]] = e
+    for row in batch.traj_obs:
+        idx = [int(torch.nonzero((obs == o).all(1))[0]) for o in row]
+        assert len({int(episode_of_obs[i]) for i in idx}) == 1
+    with torch.no_grad():
+        out = trainer.fb_losses(batch, frozen=False)
+        b_traj = trainer.model.backward_net(batch.traj_obs.reshape(-1, model_cfg.obs_dim))
+    expected = trainer.model.project_z(b_traj.reshape(cfg.batch_size, TRAJ_Z_STATES, -1).mean(1))
+    torch.testing.assert_close(out["z"][rows], expected[rows])
+    a = FBTrainer(l2, dataclasses.replace(train_cfg, precision="fp32"), data).sample()
+    b = FBTrainer(l2, dataclasses.replace(cfg, z_from_traj_ratio=0.0), data).sample()
+    assert b.use_traj is None and torch.equal(a.use_b, b.use_b) and torch.equal(a.obs, b.obs)
+    with pytest.raises(FbilError, match="z_from_traj_ratio needs b_norm l2"):
+        FBTrainer(model_cfg, cfg, data)
+
+
 def test_z_source_ratios_must_be_a_distribution() -> None:
     from fbil.errors import FbilError
     from fbil.fb.config import FBTrainConfig
 
     with pytest.raises(FbilError, match="sum to <= 1"):
         FBTrainConfig(z_from_b_ratio=0.6, z_from_b_mean_ratio=0.5)
+    with pytest.raises(FbilError, match="sum to <= 1"):
+        FBTrainConfig(z_from_b_ratio=0.5, z_from_traj_ratio=0.6)
 
 
 def test_ema_is_the_polyak_average_and_the_saved_model(fixture_data: Path, tmp_path: Path) -> None:

@@ -62,6 +62,11 @@ class FBTrainConfig:
     # (99th percentile 0.28), so without them the actor never trains on the z's it is
     # asked to serve (scripts/fb_diagnostics.py). 0 = the paper's two sources.
     z_from_b_mean_ratio: float = 0.0
+    # Share of z drawn as the mean of B over TRAJ_Z_STATES states of one dataset trajectory
+    # segment (length log-uniform in [8, 1000] transitions, cut at its episode's end),
+    # taken from the Gaussian rows: the shape of z that ERFB reads off a demonstration,
+    # E_demo[B], which neither B of one state nor a Gaussian z resembles. 0: off.
+    z_from_traj_ratio: float = 0.0
     steps: int = 1_000_000
     seed: int = 0
     log_every: int = 250
@@ -126,11 +131,11 @@ class FBTrainConfig:
             raise FbilError(f"nstep must be >= 1, got {self.nstep}")
         if self.q_loss_coef < 0:
             raise FbilError(f"q_loss_coef must be >= 0 (0: off), got {self.q_loss_coef}")
-        ratios = (self.z_from_b_ratio, self.z_from_b_mean_ratio)
+        ratios = (self.z_from_b_ratio, self.z_from_b_mean_ratio, self.z_from_traj_ratio)
         if min(ratios) < 0 or sum(ratios) > 1:
             raise FbilError(
-                "z_from_b_ratio and z_from_b_mean_ratio must be >= 0 and sum to <= 1 "
-                f"(got {ratios[0]}, {ratios[1]})"
+                "z_from_b_ratio, z_from_b_mean_ratio and z_from_traj_ratio must be >= 0 and "
+                f"sum to <= 1 (got {ratios[0]}, {ratios[1]}, {ratios[2]})"
             )
         if self.snapshot_every < 0:
             raise FbilError(f"snapshot_every must be >= 0 (0: none), got {self.snapshot_every}")

@@ -3,6 +3,7 @@
 One update, top to bottom (SPEC §4), for a batch of transitions (s_i, a_i, s'_i):
   z_i      Gaussian on the sphere, or (half the rows) B of another next state of the batch,
            or (z_from_b_mean_ratio) the mean of B over a random subset of the batch's next states
+           or (z_from_traj_ratio) the mean of B over states of one dataset trajectory segment
   M^k_ij = F^k(s_i, a_i, z_i)^T B(s'_j)                                (both heads)
   T_ij   = min_k Fbar^k(s'_i, a'_i, z_i)^T Bbar(s'_j), a'_i = mu(s'_i, z_i) + clipped noise
            (target_heads="mean": the mean of the two heads instead of the min)
@@ -49,6 +50,8 @@ from fbil.progress import progress_bar
 from fbil.stopping import StopSignals
 
 CHECKPOINT, LOG = "checkpoint.safetensors", "train_log.csv"
+# z_from_traj_ratio: states averaged per trajectory z, and the segment lengths' range.
+TRAJ_Z_STATES, TRAJ_Z_SPAN = 16, (8, 1000)
 LOG_FIELDS = (
     "step",
     "fb_loss",
@@ -124,6 +127,10 @@ class Batch(NamedTuple):
     use_mean: torch.Tensor | None
     mean_weights: torch.Tensor | None
     noise: torch.Tensor  # (2, n, act_dim): target-policy and actor smoothing noise
+    # z_from_traj_ratio > 0: rows whose z is a mean of B over one trajectory segment, and
+    # each row's TRAJ_Z_STATES states of its segment (n, TRAJ_Z_STATES, obs_dim).
+    use_traj: torch.Tensor | None = None
+    traj_obs: torch.Tensor | None = None
 
 
 class FBTrainer:
@@ -185,6 +192,20 @@ class FBTrainer:
             w = train_config.gamma ** torch.arange(k, dtype=torch.float64)
             self.k_probs = (w / w.sum()).float()
             self.measure_mass = float(w.sum())  # sum_{k<n} gamma^k
+        if train_config.z_from_traj_ratio > 0:
+            if model_config.b_norm == "batchnorm":
+                raise FbilError(
+                    "z_from_traj_ratio needs b_norm l2 (its extra B pass would move the "
+                    "batch-norm statistics); set z_from_traj_ratio=0 or b_norm=l2"
+                )
+            # Transitions t and t+1 are consecutive in one episode when their next states
+            # are; episode_last[t]: the last transition of t's episode.
+            nxt = self.next_index
+            breaks = torch.nonzero(nxt[1:] != nxt[:-1] + 1).flatten()
+            ends = torch.cat([breaks, torch.tensor([len(nxt) - 1], device=self.device)])
+            episode = torch.zeros(len(nxt), dtype=torch.long, device=self.device)
+            episode[breaks + 1] = 1
+            self.episode_last = ends[episode.cumsum(0)]
 
     # -- one update, in named steps -----------------------------------------------------
     def update(self) -> dict[str, torch.Tensor]:
@@ -225,6 +246,18 @@ class FBTrainer:
             pick = (torch.rand(n, n, generator=gen) < size / n).float()
             pick[:, 0] += pick.sum(1) == 0  # never an empty subset
             mean_weights = pick / pick.sum(1, keepdim=True)
+        use_traj = traj_obs = None
+        if cfg.z_from_traj_ratio > 0:  # extra draws only then, after all the others
+            low = cfg.z_from_b_ratio + cfg.z_from_b_mean_ratio
+            use_traj = (u >= low) & (u < low + cfg.z_from_traj_ratio)
+            start = torch.randint(0, len(self.next_index), (n,), generator=gen).to(self.device)
+            lo, hi = TRAJ_Z_SPAN
+            span = torch.exp(torch.rand(n, generator=gen) * math.log(hi / lo)) * lo
+            room = (self.episode_last[start] - start + 1).float()
+            span = torch.minimum(span.to(self.device), room)
+            frac = torch.rand(n, TRAJ_Z_STATES, generator=gen).to(self.device)
+            at = start[:, None] + (frac * span[:, None]).long().clamp_max(room[:, None].long() - 1)
+            traj_obs = self.obs[self.next_index[at]]
         # Two draws (target policy, then actor), as separate calls: one call of twice the
         # size would not give the same numbers.
         shape = (n, self.mcfg.act_dim)
@@ -242,6 +275,8 @@ class FBTrainer:
             None if use_mean is None else use_mean.to(to),
             None if mean_weights is None else mean_weights.to(to),
             noise.clamp(-cfg.stddev_clip, cfg.stddev_clip).to(to),
+            None if use_traj is None else use_traj.to(to),
+            traj_obs,
         )
 
     def _combine_heads(self, x: torch.Tensor) -> torch.Tensor:
@@ -327,6 +362,12 @@ class FBTrainer:
         if batch.use_mean is not None and batch.mean_weights is not None:
             z_mean = batch.mean_weights @ b_next.detach()
             z = torch.where(batch.use_mean[:, None], z_mean, z)
+        if batch.use_traj is not None and batch.traj_obs is not None:
+            rows = torch.nonzero(batch.use_traj).flatten()  # B of the chosen rows' states only
+            _, k, obs_dim = batch.traj_obs.shape
+            with torch.no_grad(), amp:
+                b_traj = m.backward_net(batch.traj_obs[rows].reshape(-1, obs_dim)).float()
+            z = z.index_copy(0, rows, b_traj.reshape(len(rows), k, -1).mean(1))
         z = self.sqrt_d * nn.functional.normalize(z, dim=-1)
         with torch.no_grad(), amp:
             next_action = (m.actor(batch.boot_obs, z) + batch.noise[0]).clamp(-1, 1)
