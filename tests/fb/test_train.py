@@ -316,11 +316,11 @@ def test_mean_of_b_rows_are_subset_means_and_other_rows_unchanged(fixture_data: 
 def test_trajectory_rows_are_means_of_b_over_one_episode_segment(fixture_data: Path) -> None:
     """z_from_traj_ratio: the chosen rows' z is the projected mean of B over states of one
     episode (never across an episode's end); with the ratio at 0 every draw stays as before;
-    batch-norm B refuses the option with a one-line error."""
+    with batch-norm B, the extra pass uses and keeps the running statistics."""
+    import copy
     import dataclasses
 
     from fbil.data import load_dataset
-    from fbil.errors import FbilError
     from fbil.fb.config import preset
     from fbil.fb.train import TRAJ_Z_STATES, FBTrainer
 
@@ -353,8 +353,21 @@ def test_trajectory_rows_are_means_of_b_over_one_episode_segment(fixture_data: P
     a = FBTrainer(l2, dataclasses.replace(train_cfg, precision="fp32"), data).sample()
     b = FBTrainer(l2, dataclasses.replace(cfg, z_from_traj_ratio=0.0), data).sample()
     assert b.use_traj is None and torch.equal(a.use_b, b.use_b) and torch.equal(a.obs, b.obs)
-    with pytest.raises(FbilError, match="z_from_traj_ratio needs b_norm l2"):
-        FBTrainer(model_cfg, cfg, data)
+    bn = FBTrainer(model_cfg, cfg, data)
+    batch, net = bn.sample(), bn.model.backward_net
+    start = copy.deepcopy(net.state_dict())
+    with torch.no_grad():
+        out = bn.fb_losses(batch, frozen=False)
+        after = copy.deepcopy(net.state_dict())
+        net.load_state_dict(start)
+        net(batch.next_obs)  # the loss's own train-mode pass alone moves the statistics
+        assert all(torch.equal(after[k], v) for k, v in net.state_dict().items())
+        net.eval()
+        b_eval = net(batch.traj_obs.reshape(-1, model_cfg.obs_dim))
+    rows = batch.use_traj
+    assert rows is not None and net.training is False
+    mean = b_eval.reshape(cfg.batch_size, TRAJ_Z_STATES, -1).mean(1)
+    torch.testing.assert_close(out["z"][rows], bn.model.project_z(mean)[rows])
 
 
 def test_z_source_ratios_must_be_a_distribution() -> None:

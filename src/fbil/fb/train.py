@@ -193,11 +193,6 @@ class FBTrainer:
             self.k_probs = (w / w.sum()).float()
             self.measure_mass = float(w.sum())  # sum_{k<n} gamma^k
         if train_config.z_from_traj_ratio > 0:
-            if model_config.b_norm == "batchnorm":
-                raise FbilError(
-                    "z_from_traj_ratio needs b_norm l2 (its extra B pass would move the "
-                    "batch-norm statistics); set z_from_traj_ratio=0 or b_norm=l2"
-                )
             # Transitions t and t+1 are consecutive in one episode when their next states
             # are; episode_last[t]: the last transition of t's episode.
             nxt = self.next_index
@@ -365,8 +360,11 @@ class FBTrainer:
         if batch.use_traj is not None and batch.traj_obs is not None:
             rows = torch.nonzero(batch.use_traj).flatten()  # B of the chosen rows' states only
             _, k, obs_dim = batch.traj_obs.shape
+            training = m.backward_net.training
+            m.backward_net.eval()  # batch norm: running statistics, left unchanged
             with torch.no_grad(), amp:
                 b_traj = m.backward_net(batch.traj_obs[rows].reshape(-1, obs_dim)).float()
+            m.backward_net.train(training)
             z = z.index_copy(0, rows, b_traj.reshape(len(rows), k, -1).mean(1))
         z = self.sqrt_d * nn.functional.normalize(z, dim=-1)
         with torch.no_grad(), amp:
