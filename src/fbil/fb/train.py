@@ -184,15 +184,19 @@ class FBTrainer:
             self._fb_losses = compiled(self.fb_losses)
             self._actor_loss = compiled(self.actor_loss)
         self.sqrt_d = math.sqrt(model_config.z_dim)
-        if train_config.nstep > 1:
-            k = train_config.nstep
+        self._index_episodes()
+
+    def _index_episodes(self) -> None:
+        """Row sets for n-step targets and trajectory z's, from the dataset's next_index."""
+        if self.cfg.nstep > 1:
+            k = self.cfg.nstep
             p = torch.arange(len(self.next_index) - k + 1, device=self.device)
             # Rows whose next k transitions stay inside one episode.
             self.nstep_rows = p[self.next_index[p + k - 1] == self.next_index[p] + k - 1]
-            w = train_config.gamma ** torch.arange(k, dtype=torch.float64)
+            w = self.cfg.gamma ** torch.arange(k, dtype=torch.float64)
             self.k_probs = (w / w.sum()).float()
             self.measure_mass = float(w.sum())  # sum_{k<n} gamma^k
-        if train_config.z_from_traj_ratio > 0:
+        if self.cfg.z_from_traj_ratio > 0:
             # Transitions t and t+1 are consecutive in one episode when their next states
             # are; episode_last[t]: the last transition of t's episode.
             nxt = self.next_index
