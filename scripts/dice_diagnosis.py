@@ -1,10 +1,11 @@
-"""One DICE baseline on one maze task with settings of its dual changed (`--set
-KEY=VALUE`, fields of `fbil.baselines.dice.DualConfig`, e.g. initial_states=demos), the
-rest at the `cpu` budget; the demo is draw 0 of K = 1, as `fbil benchmark` draws it. One
-thread; prints one JSON line with the returns of `--episodes` evaluation episodes, and
-with `--eval-at S1,S2,...` one more line per listed dual step (a learning curve from one
-run: the policy's return there, and the mean nu loss and w_max over the steps since the
-last line).
+"""One DICE baseline on one task (any domain: `--data`, `--demos`) with settings of its
+dual changed (`--set KEY=VALUE`, fields of `fbil.baselines.dice.DualConfig`, e.g.
+initial_states=demos), the rest at the `cpu` budget; the demo is draw 0 of K = 1, as
+`fbil benchmark` draws it. One thread; prints one JSON line with the returns of
+`--episodes` evaluation episodes, and with `--eval-at S1,S2,...` one more line per listed
+dual step (a learning curve from one run: the policy's return there, and the mean nu loss,
+w_max and w_ess (the weights' effective sample size as a share of the batch) over the
+steps since the last line).
 
 Usage: python scripts/dice_diagnosis.py {demodice,smodice,lobsdice} TASK [--set K=V ...]
        [--eval-at 20000,50000] [--disc-steps N] [--penalty W] [--reward true --reward-scale S]
@@ -125,7 +126,7 @@ def main() -> None:
         net = copy.deepcopy(learner.policy)
         stats, act_dim = learner.stats, learner.act_dim
         snap = mean_action_policy("snapshot", net, stats, act_dim, {}, dual.precision)
-        snap_ret = rollout("point_mass_maze", args.task, snap, list(range(args.episodes)))
+        snap_ret = rollout(data.domain, args.task, snap, list(range(args.episodes)))
         total = snap_ret.reward.sum(-1)
         line = {
             "step": step,
@@ -141,7 +142,7 @@ def main() -> None:
         args.method, su.kind, su.demos, data, cfg, penalty, 0, su.union, on_step, su.reward_fn
     )
     seconds = time.time() - started
-    ret = rollout("point_mass_maze", args.task, policy, list(range(args.episodes)))
+    ret = rollout(data.domain, args.task, policy, list(range(args.episodes)))
     returns = ret.reward.sum(-1)
     out = {
         "method": args.method,

@@ -13,7 +13,14 @@ from torch import distributions as D
 from fbil.agents.td3 import run_mlp
 from fbil.baselines import demodice, lobsdice, smodice, sqil
 from fbil.baselines.common import Transitions
-from fbil.baselines.dice import DualConfig, advantage, chi2_conjugate, dice_weights, dual_loss
+from fbil.baselines.dice import (
+    DualConfig,
+    advantage,
+    chi2_conjugate,
+    dice_weights,
+    dual_loss,
+    effective_share,
+)
 from fbil.baselines.dwbc import DWBC, DWBCConfig, discriminator_loss, policy_weights
 from fbil.baselines.iqlearn import iq_loss
 from fbil.baselines.offline_td3 import MixedSampler
@@ -264,6 +271,13 @@ def test_smodice_duals_give_an_occupancy_closer_to_the_experts_states() -> None:
     torch.testing.assert_close(grad, y.detach() + 1)
     above = y.detach() >= -1
     torch.testing.assert_close(chi2_conjugate(y.detach())[above], restricted.detach()[above])
+
+
+def test_effective_share_of_weights() -> None:
+    """Uniform weights use every row, one-hot weights one row, k equal weights k rows."""
+    assert effective_share(torch.full((8,), 3.0)) == pytest.approx(1.0)
+    assert effective_share(torch.eye(8)[2]) == pytest.approx(1 / 8)
+    assert effective_share(torch.tensor([2.0, 2.0, 0.0, 0.0])) == pytest.approx(0.5)
 
 
 def test_iqlearn_q_ranks_the_expert_action_first_on_a_chain() -> None:

@@ -159,6 +159,12 @@ def dice_weights(e: torch.Tensor, alpha: float, divergence: str) -> torch.Tensor
     return F.relu(y + 1)
 
 
+def effective_share(w: torch.Tensor) -> float:
+    """The weights' effective sample size (sum w)^2 / sum w^2 as a share of the rows: 1 for
+    uniform weights, 1/n when one row carries the whole weighted BC step."""
+    return float(w.sum() ** 2 / (w * w).sum().clamp_min(1e-12)) / len(w)
+
+
 def advantage(
     nu: Callable[[torch.Tensor], torch.Tensor],
     batch: Transitions,
@@ -236,7 +242,12 @@ class DiceLearner:
         self.policy_opt.zero_grad(set_to_none=True)
         p_loss.backward()
         self.policy_opt.step()
-        return {"nu_loss": float(loss.detach()), "w_max": float(w.max()), "r": float(reward.mean())}
+        return {
+            "nu_loss": float(loss.detach()),
+            "w_max": float(w.max()),
+            "w_ess": effective_share(w),
+            "r": float(reward.mean()),
+        }
 
 
 def reset_states(dataset: Any) -> torch.Tensor:
