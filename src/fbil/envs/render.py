@@ -130,8 +130,21 @@ def _save(fig: Any, out: str | Path) -> Path:
     tmp = out.with_name(f".{out.name}.tmp{out.suffix}")
     fig.savefig(tmp, bbox_inches="tight")
     _pyplot().close(fig)
+    if out.suffix.lower() == ".png":
+        _to_palette(tmp)
     tmp.replace(out)  # never leave a half-written picture behind
     return out
+
+
+def _to_palette(path: Path) -> None:
+    """Rewrite a PNG with an adaptive 256-colour palette: rendered frame strips shrink ~3x
+    (1.5 MB to ~0.5 MB for a walker report's), which keeps committed reports small."""
+    from PIL import Image
+
+    with Image.open(path) as im:
+        rgb = im.convert("RGB")
+    quantized = rgb.quantize(256, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE)
+    quantized.save(path, "PNG", optimize=True)
 
 
 def locomotion_frames(
