@@ -70,10 +70,17 @@ def write_manifest(
 
 
 def _digests(directory: Path) -> dict[str, str]:
+    """sha256 of every file of the folder, except those of a subfolder with a manifest of
+    its own (an artifact inside another one, e.g. each domain's results under the report
+    over domains)."""
+    nested = [m.parent for m in directory.rglob(MANIFEST) if m.parent != directory]
     return {
         p.relative_to(directory).as_posix(): sha256(p)
         for p in sorted(directory.rglob("*"))
-        if p.is_file() and p.name != MANIFEST and not p.name.startswith(".")
+        if p.is_file()
+        and p.name != MANIFEST
+        and not p.name.startswith(".")
+        and not any(p.is_relative_to(n) for n in nested)
     }
 
 

@@ -132,7 +132,7 @@ def groups_figure(cells: dict[tuple[str, str], dict[str, Any]], title: str, out:
     ax.set_xticks(range(len(classes)), classes, fontsize=7)
     ax.set_ylabel("imitation score (%)")
     ax.set_title(title, fontsize=9)
-    ax.legend(fontsize=7)
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))  # off the bars
     return _save(fig, out)
 
 
