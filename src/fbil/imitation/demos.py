@@ -114,7 +114,10 @@ class Demos:
     def load(cls, path: str | Path) -> Demos:
         path = Path(path)
         if not path.is_file():
-            raise FbilError(f"no demonstrations at {path}")
+            raise FbilError(
+                f"no demonstrations at {path}; pass a demo .npz (e.g. one of "
+                "artifacts/demos/<domain>/, or one written by `fbil demos`)"
+            )
         try:
             with np.load(path, allow_pickle=False) as npz:
                 data = {k: npz[k] for k in npz.files}
