@@ -1,8 +1,10 @@
 """Which half of the model bounds imitation by reward inference: the reward a z stands for,
 or the policy that should maximise it?
 
-A z of the model stands for the implied reward r_z(s') = B(s')^T z: pi_z is trained to
-maximise its discounted sum, and F(s, a, z)^T z is its predicted value. For ERFB's z (from
+A z of the model stands for an implied reward: F(s, a, z)^T z, which pi_z maximises, is the
+value of r_z(s') = B(s')^T C^-1 z, with C = E_rho[B B^T] the model's `cov_b` (the successor
+measure is F^T B; the value of a reward r is F^T E_rho[B r], and E_rho[B B^T C^-1 z] = z).
+With `--plain`, r_z = B^T z instead (the same when B is orthonormal, C = I). For ERFB's z (from
 the task's first committed demonstration) and for z_r, the probe rolls out pi_z and
 compares the mean of r_z over the states the rollout visits with its mean over the
 demonstration's own states, both in units of r_z's standard deviation over the dataset:
@@ -20,6 +22,14 @@ It also prints F's value check at the rollout's start states: the predicted F(s,
 z against the discounted sum of r_z that the rollout then collects (the first `--horizon`
 steps, at the model's gamma), averaged over start times 0, 100, ..., 500. A ratio far from
 1 says F's values for this z are off.
+
+And it splits a policy bound between F and the actor, at the demo's states and at the
+rollout's: `actor_gap` is the mean over states of max_a Q(s, a) - Q(s, pi(s)), the max over
+`--actions` uniform random actions and the demo's own action, in units of Q's standard
+deviation over those actions (Q = F(s, a, z)^T z). Near 0 or below: the actor finds F's
+best actions, so F's values are what keep pi_z from the demo's reward (a bound in F);
+clearly above 0: F knows better actions than the actor takes (a bound in the actor).
+`demo_adv` is the mean of Q(s, a_demo) - Q(s, pi(s)) over the demo's states, same units.
 
 Any domain; the demos folder holds <task>.npz files.
 
@@ -50,8 +60,10 @@ STARTS = (0, 100, 200, 300, 400, 500)
 
 
 @torch.no_grad()
-def value_check(model: FBModel, z: torch.Tensor, obs: np.ndarray, horizon: int) -> dict:
-    """Predicted F(s_t, pi(s_t), z)^T z against the collected discounted sum of r_z from t."""
+def value_check(
+    model: FBModel, z: torch.Tensor, w: torch.Tensor, obs: np.ndarray, horizon: int
+) -> dict:
+    """Predicted F(s_t, pi(s_t), z)^T z against the collected discounted sum of r_z = B^T w."""
     n, steps = obs.shape[0], obs.shape[1] - 1
     starts = [t for t in STARTS if t + horizon <= steps]
     disc = model.gamma ** torch.arange(horizon, dtype=torch.float32)
@@ -60,21 +72,23 @@ def value_check(model: FBModel, z: torch.Tensor, obs: np.ndarray, horizon: int) 
         s = torch.as_tensor(obs[:, t], dtype=torch.float32)
         pred.append(model.q_value(s, z, model.act(s, z)))
         nxt = torch.as_tensor(obs[:, t + 1 : t + 1 + horizon], dtype=torch.float32)
-        r = model.backward(nxt.reshape(-1, obs.shape[-1])).reshape(n, horizon, -1) @ z
+        r = model.backward(nxt.reshape(-1, obs.shape[-1])).reshape(n, horizon, -1) @ w
         real.append((r * disc).sum(1))
     p, r = torch.cat(pred), torch.cat(real)
     return {"predicted": float(p.mean()), "collected": float(r.mean()), "starts": starts}
 
 
 @torch.no_grad()
-def probe_z(model: FBModel, z: torch.Tensor, b_data: torch.Tensor, demo_b: torch.Tensor,
-            domain: str, task: str, seeds: list[int], horizon: int) -> dict:
+def probe_z(model: FBModel, z: torch.Tensor, c_inv: torch.Tensor, b_data: torch.Tensor,
+            demo_b: torch.Tensor, domain: str, task: str, seeds: list[int], horizon: int,
+            demo: tuple[torch.Tensor, torch.Tensor | None], actions: int) -> dict:
     """One z: its rollout's return, r_z over rollout / demo / data, and F's value check."""
+    w = c_inv @ z  # r_z(s') = B(s')^T w
     episodes = rollout(domain, task, FBPolicy(model, z), seeds)
     obs = episodes.observation
     visited = torch.as_tensor(obs[:, 1:].reshape(-1, obs.shape[-1]), dtype=torch.float32)
-    r_data = b_data @ z
-    r_roll, r_demo = float((model.backward(visited) @ z).mean()), float((demo_b @ z).mean())
+    r_data = b_data @ w
+    r_roll, r_demo = float((model.backward(visited) @ w).mean()), float((demo_b @ w).mean())
     std = float(r_data.std())
     return {
         "return_mean": float(np.mean(episodes.returns)),
@@ -84,8 +98,28 @@ def probe_z(model: FBModel, z: torch.Tensor, b_data: torch.Tensor, demo_b: torch
         "r_z_data_std": std,
         "r_z_data_p99": float(torch.quantile(r_data[:: max(1, len(r_data) // 200_000)], 0.99)),
         "gap": (r_roll - r_demo) / std,
-        "value": value_check(model, z, obs, horizon),
+        "value": value_check(model, z, w, obs, horizon),
+        "at_demo": actor_check(model, z, demo[0], demo[1], actions),
+        "at_rollout": actor_check(model, z, visited[::10], None, actions),
     }
+
+
+@torch.no_grad()
+def actor_check(
+    model: FBModel, z: torch.Tensor, obs: torch.Tensor, demo_act: torch.Tensor | None, n: int
+) -> dict:
+    """max over random (and demo) actions of Q minus Q of the actor's action, per state."""
+    gen = torch.Generator().manual_seed(0)
+    rand = torch.rand(len(obs), n, model.config.act_dim, generator=gen) * 2 - 1
+    cand = rand if demo_act is None else torch.cat([rand, demo_act[:, None]], 1)
+    k = cand.shape[1]
+    q = model.q_value(obs.repeat_interleave(k, 0), z, cand.reshape(-1, cand.shape[-1])).reshape(-1, k)
+    q_pi = model.q_value(obs, z, model.act(obs, z))
+    scale = q[:, :n].std(1).clamp_min(1e-6)
+    out = {"actor_gap": float(((q.max(1).values - q_pi) / scale).mean())}
+    if demo_act is not None:
+        out["demo_adv"] = float(((q[:, -1] - q_pi) / scale).mean())
+    return out
 
 
 def main() -> None:
@@ -98,14 +132,19 @@ def main() -> None:
     p.add_argument("--horizon", type=int, default=300, help="steps of the value check")
     p.add_argument("--threads", type=int, default=1)
     p.add_argument("--json", default=None, help="also write the table to this JSON file")
+    p.add_argument("--plain", action="store_true", help="r_z = B^T z, without C^-1")
+    p.add_argument("--actions", type=int, default=64, help="random actions of the actor check")
     args = p.parse_args()
     torch.set_num_threads(args.threads)
     model, data = FBModel.load(args.model), load_dataset(args.data)
     tasks = get_domain(data.domain).task_names if args.tasks == "all" else args.tasks.split(",")
     b = dataset_backward(model, data)
+    c_inv = torch.eye(model.z_dim) if args.plain else torch.linalg.inv(model.cov_b.double()).float()
     seeds = [10_000 + i for i in range(args.episodes)]
-    table: dict = {"model": args.model, "data": args.data, "demos": args.demos, "tasks": {}}
-    print("z      task        return  r_z: rollout    demo    data (std)     gap  value: pred / collected")
+    table: dict = {"model": args.model, "data": args.data, "demos": args.demos, "plain": args.plain}
+    table["tasks"] = {}
+    print("z      task        return  r_z: rollout    demo    data (std)     gap  value: pred / collected"
+          "  actor_gap demo / rollout  demo_adv")
     for task in tasks:
         reward = torch.from_numpy(data.reward(task)).reshape(-1, 1).float()
         demos = Demos.load(Path(args.demos) / f"{task}.npz").select([0])
@@ -113,13 +152,16 @@ def main() -> None:
         zs = {"ERFB": erfb(model, batch)[0], "z_r": model.project_z((reward * b).mean(0))}
         row = {"demo_return": float(demos.trajectories[0].reward.sum())}
         for name, z in zs.items():
-            r = probe_z(model, z, b, batch.b_next, data.domain, task, seeds, args.horizon)
+            r = probe_z(model, z, c_inv, b, batch.b_next, data.domain, task, seeds, args.horizon,
+                        (batch.obs, batch.action), args.actions)
             row[name] = r
             v = r["value"]
             print(
                 f"{name:6} {task:10} {r['return_mean']:7.1f}  {r['r_z_rollout']:13.2f} "
                 f"{r['r_z_demo']:7.2f} {r['r_z_data_mean']:7.2f} ({r['r_z_data_std']:5.2f}) "
-                f"{r['gap']:7.2f}  {v['predicted']:8.1f} / {v['collected']:8.1f}",
+                f"{r['gap']:7.2f}  {v['predicted']:8.1f} / {v['collected']:8.1f}"
+                f"  {r['at_demo']['actor_gap']:6.2f} / {r['at_rollout']['actor_gap']:6.2f}"
+                f"  {r['at_demo'].get('demo_adv', float('nan')):6.2f}",
                 flush=True,
             )
         table["tasks"][task] = row
