@@ -41,11 +41,11 @@ class OTRConfig:
     alpha: float = 5.0  # OTR's exponential squashing r = alpha * exp(-beta * c / d)
     beta: float = 5.0
     batch_episodes: int = 64  # episodes of one length whose costs are computed together
-    return_span: float | None = None  # rewards x span / (max - min episode return) (OTR: 1000)
+    return_span: float | None = None  # rewards x span / (max - min episode return) (cpu: 1000)
 
 
 BUDGETS = Budgets(
-    cpu=OTRConfig(),
+    cpu=OTRConfig(return_span=1000.0),  # the reference's rescaling (session 30)
     smoke=OTRConfig(OfflineTD3Config(steps=20, hidden=32, batch_size=64), iterations=20),
 )
 
