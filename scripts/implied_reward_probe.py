@@ -30,6 +30,9 @@ deviation over those actions (Q = F(s, a, z)^T z). Near 0 or below: the actor fi
 best actions, so F's values are what keep pi_z from the demo's reward (a bound in F);
 clearly above 0: F knows better actions than the actor takes (a bound in the actor).
 `demo_adv` is the mean of Q(s, a_demo) - Q(s, pi(s)) over the demo's states, same units.
+`actor_gap_local` is the same as `actor_gap` over `--actions` perturbations of the actor's
+own action (Gaussian, std 0.2, clipped): in many action dimensions uniform random actions
+are a weak search, and this checks the actor's local optimality instead.
 
 Any domain; the demos folder holds <task>.npz files.
 
@@ -111,12 +114,18 @@ def actor_check(
     """max over random (and demo) actions of Q minus Q of the actor's action, per state."""
     gen = torch.Generator().manual_seed(0)
     rand = torch.rand(len(obs), n, model.config.act_dim, generator=gen) * 2 - 1
-    cand = rand if demo_act is None else torch.cat([rand, demo_act[:, None]], 1)
+    mu = model.act(obs, z)
+    local = (mu[:, None] + 0.2 * torch.randn(rand.shape, generator=gen)).clamp(-1, 1)
+    cand = torch.cat([rand, local] + ([] if demo_act is None else [demo_act[:, None]]), 1)
     k = cand.shape[1]
     q = model.q_value(obs.repeat_interleave(k, 0), z, cand.reshape(-1, cand.shape[-1])).reshape(-1, k)
-    q_pi = model.q_value(obs, z, model.act(obs, z))
+    q_pi = model.q_value(obs, z, mu)
     scale = q[:, :n].std(1).clamp_min(1e-6)
-    out = {"actor_gap": float(((q.max(1).values - q_pi) / scale).mean())}
+    best_global = torch.cat([q[:, :n], q[:, 2 * n :]], 1).max(1).values
+    out = {
+        "actor_gap": float(((best_global - q_pi) / scale).mean()),
+        "actor_gap_local": float(((q[:, n : 2 * n].max(1).values - q_pi) / scale).mean()),
+    }
     if demo_act is not None:
         out["demo_adv"] = float(((q[:, -1] - q_pi) / scale).mean())
     return out
@@ -144,7 +153,7 @@ def main() -> None:
     table: dict = {"model": args.model, "data": args.data, "demos": args.demos, "plain": args.plain}
     table["tasks"] = {}
     print("z      task        return  r_z: rollout    demo    data (std)     gap  value: pred / collected"
-          "  actor_gap demo / rollout  demo_adv")
+          "  actor_gap demo / rollout  demo_adv  local demo / rollout")
     for task in tasks:
         reward = torch.from_numpy(data.reward(task)).reshape(-1, 1).float()
         demos = Demos.load(Path(args.demos) / f"{task}.npz").select([0])
@@ -161,7 +170,8 @@ def main() -> None:
                 f"{r['r_z_demo']:7.2f} {r['r_z_data_mean']:7.2f} ({r['r_z_data_std']:5.2f}) "
                 f"{r['gap']:7.2f}  {v['predicted']:8.1f} / {v['collected']:8.1f}"
                 f"  {r['at_demo']['actor_gap']:6.2f} / {r['at_rollout']['actor_gap']:6.2f}"
-                f"  {r['at_demo'].get('demo_adv', float('nan')):6.2f}",
+                f"  {r['at_demo'].get('demo_adv', float('nan')):6.2f}"
+                f"  {r['at_demo']['actor_gap_local']:6.2f} / {r['at_rollout']['actor_gap_local']:6.2f}",
                 flush=True,
             )
         table["tasks"][task] = row
