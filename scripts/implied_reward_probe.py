@@ -60,6 +60,22 @@ from fbil.imitation.demos import Demos
 from fbil.imitation.methods.reward import erfb
 
 STARTS = (0, 100, 200, 300, 400, 500)
+HEADER = (
+    "z      task        return  r_z: rollout    demo    data (std)     gap"
+    "  value: pred / collected  actor_gap demo / rollout  demo_adv  local demo / rollout"
+)
+
+
+def row_text(name: str, task: str, r: dict) -> str:
+    """One printed line of the table."""
+    v, d, o = r["value"], r["at_demo"], r["at_rollout"]
+    return (
+        f"{name:6} {task:10} {r['return_mean']:7.1f}  {r['r_z_rollout']:13.2f} "
+        f"{r['r_z_demo']:7.2f} {r['r_z_data_mean']:7.2f} ({r['r_z_data_std']:5.2f}) "
+        f"{r['gap']:7.2f}  {v['predicted']:8.1f} / {v['collected']:8.1f}"
+        f"  {d['actor_gap']:6.2f} / {o['actor_gap']:6.2f}  {d.get('demo_adv', float('nan')):6.2f}"
+        f"  {d['actor_gap_local']:6.2f} / {o['actor_gap_local']:6.2f}"
+    )
 
 
 @torch.no_grad()
@@ -82,9 +98,19 @@ def value_check(
 
 
 @torch.no_grad()
-def probe_z(model: FBModel, z: torch.Tensor, c_inv: torch.Tensor, b_data: torch.Tensor,
-            demo_b: torch.Tensor, domain: str, task: str, seeds: list[int], horizon: int,
-            demo: tuple[torch.Tensor, torch.Tensor | None], actions: int) -> dict:
+def probe_z(
+    model: FBModel,
+    z: torch.Tensor,
+    c_inv: torch.Tensor,
+    b_data: torch.Tensor,
+    demo_b: torch.Tensor,
+    domain: str,
+    task: str,
+    seeds: list[int],
+    horizon: int,
+    demo: tuple[torch.Tensor, torch.Tensor | None],
+    actions: int,
+) -> dict:
     """One z: its rollout's return, r_z over rollout / demo / data, and F's value check."""
     w = c_inv @ z  # r_z(s') = B(s')^T w
     episodes = rollout(domain, task, FBPolicy(model, z), seeds)
@@ -118,7 +144,9 @@ def actor_check(
     local = (mu[:, None] + 0.2 * torch.randn(rand.shape, generator=gen)).clamp(-1, 1)
     cand = torch.cat([rand, local] + ([] if demo_act is None else [demo_act[:, None]]), 1)
     k = cand.shape[1]
-    q = model.q_value(obs.repeat_interleave(k, 0), z, cand.reshape(-1, cand.shape[-1])).reshape(-1, k)
+    q = model.q_value(obs.repeat_interleave(k, 0), z, cand.reshape(-1, cand.shape[-1])).reshape(
+        -1, k
+    )
     q_pi = model.q_value(obs, z, mu)
     scale = q[:, :n].std(1).clamp_min(1e-6)
     best_global = torch.cat([q[:, :n], q[:, 2 * n :]], 1).max(1).values
@@ -152,8 +180,7 @@ def main() -> None:
     seeds = [10_000 + i for i in range(args.episodes)]
     table: dict = {"model": args.model, "data": args.data, "demos": args.demos, "plain": args.plain}
     table["tasks"] = {}
-    print("z      task        return  r_z: rollout    demo    data (std)     gap  value: pred / collected"
-          "  actor_gap demo / rollout  demo_adv  local demo / rollout")
+    print(HEADER)
     for task in tasks:
         reward = torch.from_numpy(data.reward(task)).reshape(-1, 1).float()
         demos = Demos.load(Path(args.demos) / f"{task}.npz").select([0])
@@ -161,19 +188,21 @@ def main() -> None:
         zs = {"ERFB": erfb(model, batch)[0], "z_r": model.project_z((reward * b).mean(0))}
         row = {"demo_return": float(demos.trajectories[0].reward.sum())}
         for name, z in zs.items():
-            r = probe_z(model, z, c_inv, b, batch.b_next, data.domain, task, seeds, args.horizon,
-                        (batch.obs, batch.action), args.actions)
-            row[name] = r
-            v = r["value"]
-            print(
-                f"{name:6} {task:10} {r['return_mean']:7.1f}  {r['r_z_rollout']:13.2f} "
-                f"{r['r_z_demo']:7.2f} {r['r_z_data_mean']:7.2f} ({r['r_z_data_std']:5.2f}) "
-                f"{r['gap']:7.2f}  {v['predicted']:8.1f} / {v['collected']:8.1f}"
-                f"  {r['at_demo']['actor_gap']:6.2f} / {r['at_rollout']['actor_gap']:6.2f}"
-                f"  {r['at_demo'].get('demo_adv', float('nan')):6.2f}"
-                f"  {r['at_demo']['actor_gap_local']:6.2f} / {r['at_rollout']['actor_gap_local']:6.2f}",
-                flush=True,
+            r = probe_z(
+                model,
+                z,
+                c_inv,
+                b,
+                batch.b_next,
+                data.domain,
+                task,
+                seeds,
+                args.horizon,
+                (batch.obs, batch.action),
+                args.actions,
             )
+            row[name] = r
+            print(row_text(name, task, r), flush=True)
         table["tasks"][task] = row
     if args.json:
         atomic_write_text(args.json, json.dumps(table, indent=1) + "\n")

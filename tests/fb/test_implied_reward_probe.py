@@ -1,0 +1,72 @@
+"""scripts/implied_reward_probe.py: its actor check and value check on hand-made models whose
+Q and features are known in closed form."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+import torch
+
+from tests.script_module import load_script
+
+probe = load_script("implied_reward_probe")
+
+
+class QuadraticModel:
+    """Q(s, a, z) = -|a - target(s)|^2; the actor returns `actor(s)`."""
+
+    def __init__(self, target: torch.Tensor, actor: torch.Tensor) -> None:
+        self.target, self.actor = target, actor
+        self.config = SimpleNamespace(act_dim=target.shape[1])
+
+    def act(self, obs: torch.Tensor, z: torch.Tensor) -> torch.Tensor:
+        return self.actor[: len(obs)]
+
+    def q_value(self, obs: torch.Tensor, z: torch.Tensor, action: torch.Tensor) -> torch.Tensor:
+        k = len(action) // len(self.target)
+        target = self.target.repeat_interleave(k, 0) if k > 1 else self.target
+        return -((action - target) ** 2).sum(-1)
+
+
+def test_an_actor_at_the_argmax_of_q_leaves_no_gap() -> None:
+    gen = torch.Generator().manual_seed(1)
+    target = torch.rand(50, 3, generator=gen) * 1.6 - 0.8
+    model = QuadraticModel(target, actor=target.clone())
+    out = probe.actor_check(model, torch.zeros(4), torch.zeros(50, 2), target.clone(), 64)
+    assert out["actor_gap"] <= 1e-6 and out["actor_gap_local"] <= 1e-6
+    assert out["demo_adv"] == pytest.approx(0.0, abs=1e-6)
+
+
+def test_an_actor_off_the_argmax_leaves_a_gap_that_the_demo_action_closes() -> None:
+    gen = torch.Generator().manual_seed(2)
+    target = torch.rand(50, 3, generator=gen) * 1.6 - 0.8
+    model = QuadraticModel(target, actor=-target.sign())  # far from the best action
+    out = probe.actor_check(model, torch.zeros(4), torch.zeros(50, 2), target.clone(), 64)
+    assert out["actor_gap"] > 1.0 and out["actor_gap_local"] > 0.0
+    assert out["demo_adv"] >= out["actor_gap"] - 1e-6  # the demo's action is the best one
+    no_demo = probe.actor_check(model, torch.zeros(4), torch.zeros(50, 2), None, 64)
+    assert "demo_adv" not in no_demo and no_demo["actor_gap"] > 0.5
+
+
+def test_the_value_check_collects_the_discounted_implied_reward() -> None:
+    """B(s) = s and constant states v: r_z = v . w at every step, so the collected value
+    from any start is (v . w) (1 - gamma^H) / (1 - gamma); the prediction is Q's mean."""
+    gamma, horizon, steps = 0.9, 50, 700
+    v = torch.tensor([0.5, -1.0, 2.0])
+    w = torch.tensor([1.0, 0.5, 0.25])
+    model = SimpleNamespace(
+        gamma=gamma,
+        backward=lambda obs: obs,
+        act=lambda obs, z: torch.zeros(len(obs), 1),
+        q_value=lambda obs, z, a: torch.full((len(obs),), 7.0),
+    )
+    obs = np.broadcast_to(v.numpy(), (2, steps + 1, 3)).copy()
+    out = probe.value_check(model, torch.zeros(3), w, obs, horizon)
+    expected = float(v @ w) * (1 - gamma**horizon) / (1 - gamma)
+    assert out["collected"] == pytest.approx(expected, rel=1e-5)
+    assert out["predicted"] == pytest.approx(7.0)
+    assert out["starts"] == [0, 100, 200, 300, 400, 500]
+    short = probe.value_check(model, torch.zeros(3), w, obs[:, :260], horizon)
+    assert short["starts"] == [0, 100, 200]  # only starts with a whole horizon after them
