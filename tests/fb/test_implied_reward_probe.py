@@ -70,3 +70,12 @@ def test_the_value_check_collects_the_discounted_implied_reward() -> None:
     assert out["starts"] == [0, 100, 200, 300, 400, 500]
     short = probe.value_check(model, torch.zeros(3), w, obs[:, :260], horizon)
     assert short["starts"] == [0, 100, 200]  # only starts with a whole horizon after them
+
+
+def test_demo_coverage_nearest_distance_is_exact_across_chunks() -> None:
+    coverage = load_script("demo_coverage")
+    gen = torch.Generator().manual_seed(3)
+    points, queries = torch.randn(1000, 5, generator=gen), torch.randn(40, 5, generator=gen)
+    exact = torch.cdist(queries, points).min(1).values
+    assert torch.allclose(coverage.nearest_distance(queries, points, chunk=97), exact)
+    assert torch.allclose(coverage.nearest_distance(points[:7], points), torch.zeros(7))
