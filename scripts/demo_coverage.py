@@ -4,7 +4,8 @@ For each task's first committed demonstration, the distance from each demo state
 nearest dataset state, and from each demo (state, action) pair to its nearest dataset pair,
 next to the same distances between dataset points and their nearest other dataset point
 (500 random probes). States and actions are scaled coordinate-wise by the dataset's standard
-deviations. When the states are covered (demo-to-data close to data-to-data) but the pairs
+deviations. Also the share of action coordinates beyond 0.99 in absolute value, in the data
+and in each demo. When the states are covered (demo-to-data close to data-to-data) but the pairs
 are not, the data shows the demo's states only with other actions, and F must extrapolate
 to value the demo's actions.
 
@@ -65,11 +66,15 @@ def main() -> None:
         "data_to_data": {
             "state": summary(nearest_distance(states[probe], states[keep])),
             "pair": summary(nearest_distance(pairs[probe], pairs[keep])),
+            "saturated": float((act.abs() > 0.99).float().mean()),
         },
         "tasks": {},
     }
     base = table["data_to_data"]
-    print(f"data to data: state {base['state']['median']:.2f}, pair {base['pair']['median']:.2f}")
+    print(
+        f"data to data: state {base['state']['median']:.2f}, pair {base['pair']['median']:.2f}; "
+        f"action coordinates beyond 0.99: {base['saturated']:.2f}"
+    )
     for task in tasks:
         traj = Demos.load(Path(args.demos) / f"{task}.npz").select([0]).trajectories[0]
         if traj.action is None:
@@ -80,12 +85,13 @@ def main() -> None:
         row = {
             "state": summary(nearest_distance(d_obs, states)),
             "pair": summary(nearest_distance(torch.cat([d_obs, d_act], 1), pairs)),
+            "saturated": float((d_act * a_scale).abs().gt(0.99).float().mean()),
         }
         table["tasks"][task] = row
         print(
             f"{task:24} demo to data: state {row['state']['median']:.2f} "
             f"(p90 {row['state']['p90']:.2f}), pair {row['pair']['median']:.2f} "
-            f"(p90 {row['pair']['p90']:.2f})",
+            f"(p90 {row['pair']['p90']:.2f}); saturated {row['saturated']:.2f}",
             flush=True,
         )
     if args.json:

@@ -30,6 +30,7 @@ deviation over those actions (Q = F(s, a, z)^T z). Near 0 or below: the actor fi
 best actions, so F's values are what keep pi_z from the demo's reward (a bound in F);
 clearly above 0: F knows better actions than the actor takes (a bound in the actor).
 `demo_adv` is the mean of Q(s, a_demo) - Q(s, pi(s)) over the demo's states, same units.
+`saturated` is the share of the actor's action coordinates beyond 0.99 in absolute value.
 `actor_gap_local` is the same as `actor_gap` over `--actions` perturbations of the actor's
 own action (Gaussian, std 0.2, clipped): in many action dimensions uniform random actions
 are a weak search, and this checks the actor's local optimality instead.
@@ -151,6 +152,7 @@ def actor_check(
     scale = q[:, :n].std(1).clamp_min(1e-6)
     best_global = torch.cat([q[:, :n], q[:, 2 * n :]], 1).max(1).values
     out = {
+        "saturated": float((mu.abs() > 0.99).float().mean()),
         "actor_gap": float(((best_global - q_pi) / scale).mean()),
         "actor_gap_local": float(((q[:, n : 2 * n].max(1).values - q_pi) / scale).mean()),
     }
