@@ -46,6 +46,7 @@ from __future__ import annotations
 import argparse
 import json
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import torch
@@ -79,6 +80,14 @@ def row_text(name: str, task: str, r: dict) -> str:
     )
 
 
+def implied_reward_weights(model: Any, z: torch.Tensor, plain: bool = False) -> torch.Tensor:
+    """w with r_z(s') = B(s')^T w the reward whose value F(s, a, z)^T z is: C^-1 z, with
+    C = E_rho[B B^T] the model's `cov_b` (z itself with `plain`)."""
+    if plain:
+        return z
+    return torch.linalg.solve(model.cov_b.double(), z.double()).to(z.dtype)
+
+
 @torch.no_grad()
 def value_check(
     model: FBModel, z: torch.Tensor, w: torch.Tensor, obs: np.ndarray, horizon: int
@@ -102,7 +111,7 @@ def value_check(
 def probe_z(
     model: FBModel,
     z: torch.Tensor,
-    c_inv: torch.Tensor,
+    plain: bool,
     b_data: torch.Tensor,
     demo_b: torch.Tensor,
     domain: str,
@@ -113,7 +122,7 @@ def probe_z(
     actions: int,
 ) -> dict:
     """One z: its rollout's return, r_z over rollout / demo / data, and F's value check."""
-    w = c_inv @ z  # r_z(s') = B(s')^T w
+    w = implied_reward_weights(model, z, plain)  # r_z(s') = B(s')^T w
     episodes = rollout(domain, task, FBPolicy(model, z), seeds)
     obs = episodes.observation
     visited = torch.as_tensor(obs[:, 1:].reshape(-1, obs.shape[-1]), dtype=torch.float32)
@@ -178,7 +187,6 @@ def main() -> None:
     model, data = FBModel.load(args.model), load_dataset(args.data)
     tasks = get_domain(data.domain).task_names if args.tasks == "all" else args.tasks.split(",")
     b = dataset_backward(model, data)
-    c_inv = torch.eye(model.z_dim) if args.plain else torch.linalg.inv(model.cov_b.double()).float()
     seeds = [10_000 + i for i in range(args.episodes)]
     table: dict = {"model": args.model, "data": args.data, "demos": args.demos, "plain": args.plain}
     table["tasks"] = {}
@@ -193,7 +201,7 @@ def main() -> None:
             r = probe_z(
                 model,
                 z,
-                c_inv,
+                args.plain,
                 b,
                 batch.b_next,
                 data.domain,

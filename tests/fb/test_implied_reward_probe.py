@@ -79,3 +79,21 @@ def test_demo_coverage_nearest_distance_is_exact_across_chunks() -> None:
     exact = torch.cdist(queries, points).min(1).values
     assert torch.allclose(coverage.nearest_distance(queries, points, chunk=97), exact)
     assert torch.allclose(coverage.nearest_distance(points[:7], points), torch.zeros(7))
+
+
+@pytest.mark.parametrize("dense", [False, True])
+def test_f_transpose_z_is_the_value_of_the_implied_reward_in_an_exact_model(dense: bool) -> None:
+    """In a finite MDP with an exact FB model, F(s, z)^T z equals the value under pi_z of
+    r(s') = B(s')^T C^-1 z, the probe's implied reward; with a non-orthonormal B the plain
+    B^T z is another reward."""
+    from tests.imitation.tabular import TabularFB
+
+    fb = TabularFB(dense=dense)
+    z = fb.project_z(torch.randn(fb.z_dim, generator=torch.Generator().manual_seed(4)))
+    eye = torch.eye(fb.S, dtype=torch.float64)
+    f_z = fb.forward(eye, z) @ z
+    m = fb.successor(fb.policy(z))
+    reward = fb.backward(eye) @ probe.implied_reward_weights(fb, z)
+    assert torch.allclose(f_z, m @ reward, rtol=1e-9, atol=1e-9)
+    plain = fb.backward(eye) @ probe.implied_reward_weights(fb, z, plain=True)
+    assert not torch.allclose(f_z, m @ plain, rtol=1e-3)
