@@ -1,17 +1,18 @@
-"""scripts/implied_reward_probe.py: its actor check and value check on hand-made models whose
-Q and features are known in closed form."""
+"""fbil.evaluation.implied (the implied-reward probe): its actor check and value check on
+hand-made models whose Q and features are known in closed form, its reward identity on an
+exact tabular FB model, and its report section."""
 
 from __future__ import annotations
 
+from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
 import pytest
 import torch
 
+from fbil.evaluation import implied as probe
 from tests.script_module import load_script
-
-probe = load_script("implied_reward_probe")
 
 
 class QuadraticModel:
@@ -97,3 +98,40 @@ def test_f_transpose_z_is_the_value_of_the_implied_reward_in_an_exact_model(dens
     assert torch.allclose(f_z, m @ reward, rtol=1e-9, atol=1e-9)
     plain = fb.backward(eye) @ probe.implied_reward_weights(fb, z, plain=True)
     assert not torch.allclose(f_z, m @ plain, rtol=1e-3)
+
+
+def _row(ret: float, gap: float, demo_gap: float, roll_gap: float) -> dict:
+    check = {"actor_gap": demo_gap, "actor_gap_local": 0.1, "saturated": 0.0, "demo_adv": -0.5}
+    erfb = {"return_mean": ret, "gap": gap, "at_demo": check}
+    erfb["at_rollout"] = {**check, "actor_gap": roll_gap}
+    z_r = {**erfb, "return_mean": 500.0, "gap": 0.0}
+    return {"demo_return": 800.0, "ERFB": erfb, "z_r": z_r}
+
+
+def test_the_reading_names_the_bound_by_the_probes_rules() -> None:
+    assert probe.reading(_row(500.0, -3.0, 0.0, 0.0)).startswith("–")  # half the demo's
+    assert probe.reading(_row(100.0, -0.2, 2.0, 2.0)) == "the implied reward (B)"
+    assert probe.reading(_row(100.0, -3.0, 0.1, 1.2)) == "the actor"
+    assert probe.reading(_row(100.0, -3.0, 0.4, -0.5)) == "F"
+    assert probe.reading(_row(100.0, -3.0, 0.7, 0.2)) == "F and the actor"
+
+
+def test_an_implied_reward_json_next_to_the_results_adds_its_table(tmp_path: Path) -> None:
+    import json
+
+    from fbil.evaluation.report import write_report
+    from tests.evaluation.test_report import _maze_rows, _write
+
+    results = _write(tmp_path / "maze.jsonl", _maze_rows())
+    assert "what a demo's z pays" not in write_report(results, tmp_path / "r0").read_text()
+    table = {
+        "domain": "point_mass_maze",
+        "model": "m",
+        "tasks": {"loop": _row(90.0, -3.0, 0.1, 0.2)},
+    }
+    (tmp_path / "implied_reward.json").write_text(json.dumps(table))
+    text = write_report(results, tmp_path / "r1").read_text()
+    assert "## Reward inference: what a demo's z pays" in text
+    assert "| loop | 90.0 (800.0) | -3.00 | 0.10 / 0.20 | -0.50 | 0.00 | F |" in text
+    (tmp_path / "implied_reward.json").write_text(json.dumps({**table, "domain": "walker"}))
+    assert "what a demo's z pays" not in write_report(results, tmp_path / "r2").read_text()

@@ -39,6 +39,7 @@ from fbil.evaluation.families import (
     time_figure,
     time_table,
 )
+from fbil.evaluation.implied import find_implied, implied_section
 from fbil.evaluation.paper import (
     PAPER_RETURNS,
     PAPER_SCORES,
@@ -378,6 +379,9 @@ def _domain_report(
         if curve is not None and curve.get("domain") == domain:
             lines += curve_section(curve, out)  # the baselines' score against budget
         lines += _limits_section(rows, summary["settings"][main], domain, main)
+        implied = find_implied(files, domain)  # scripts/implied_reward_probe.py
+        if implied is not None:
+            lines += implied_section(implied)
         seeds = find_seeds(files, domain)  # several models of one recipe (issue #23)
         if seeds is not None:
             lines += seeds_section(seeds)
