@@ -17,16 +17,12 @@ Usage: python scripts/implied_reward_probe.py MODEL --data DIR --demos DIR [--ta
 
 from __future__ import annotations
 
-import argparse
 import json
 
-import torch
+from probe_cli import load, probe_parser
 
 from fbil.checkpoint import atomic_write_text
-from fbil.data import load_dataset
-from fbil.envs import get_domain
 from fbil.evaluation.implied import ProbeSettings, probe_model
-from fbil.fb.model import FBModel
 
 HEADER = (
     "z      task        return  r_z: rollout    demo    data (std)     gap"
@@ -47,21 +43,12 @@ def row_text(name: str, task: str, r: dict) -> str:
 
 
 def main() -> None:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("model")
-    p.add_argument("--data", required=True)
-    p.add_argument("--demos", required=True)
-    p.add_argument("--tasks", default="all")
-    p.add_argument("--episodes", type=int, default=10)
+    p = probe_parser(__doc__.splitlines()[0])
     p.add_argument("--horizon", type=int, default=300, help="steps of the value check")
     p.add_argument("--actions", type=int, default=64, help="random actions of the actor check")
     p.add_argument("--plain", action="store_true", help="r_z = B^T z, without C^-1")
-    p.add_argument("--threads", type=int, default=1)
-    p.add_argument("--json", default=None, help="also write the table to this JSON file")
     args = p.parse_args()
-    torch.set_num_threads(args.threads)
-    model, data = FBModel.load(args.model), load_dataset(args.data)
-    tasks = get_domain(data.domain).task_names if args.tasks == "all" else args.tasks.split(",")
+    model, data, tasks = load(args)
     cfg = ProbeSettings(args.episodes, args.horizon, args.actions, args.plain)
     table = {"model": args.model, **probe_model(model, data, args.demos, tasks, cfg)}
     print(HEADER)

@@ -29,15 +29,14 @@ Usage: python scripts/z_probe.py MODEL --data DIR --demos DIR [--tasks all] [--e
 
 from __future__ import annotations
 
-import argparse
 import json
 from pathlib import Path
 
 import numpy as np
 import torch
+from probe_cli import load, probe_parser
 
-from fbil.data import load_dataset
-from fbil.envs import get_domain, rollout
+from fbil.envs import rollout
 from fbil.fb.model import FBModel
 from fbil.fb.policy import FBPolicy
 from fbil.fb.zero_shot import dataset_backward
@@ -81,18 +80,8 @@ def task_zs(
 
 
 def main() -> None:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("model")
-    p.add_argument("--data", required=True)
-    p.add_argument("--demos", required=True)
-    p.add_argument("--tasks", default="all")
-    p.add_argument("--episodes", type=int, default=10)
-    p.add_argument("--threads", type=int, default=1)
-    p.add_argument("--json", default=None, help="also write the table to this JSON file")
-    args = p.parse_args()
-    torch.set_num_threads(args.threads)
-    model, data = FBModel.load(args.model), load_dataset(args.data)
-    tasks = get_domain(data.domain).task_names if args.tasks == "all" else args.tasks.split(",")
+    args = probe_parser(__doc__.splitlines()[0]).parse_args()
+    model, data, tasks = load(args)
     b = dataset_backward(model, data)
     nxt = torch.as_tensor(np.asarray(data.observation[data.next_index], np.float32))
     scale = nxt.std(0).clamp_min(1e-6)
