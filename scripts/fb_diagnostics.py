@@ -9,6 +9,8 @@
                   lies in span B, so the reference is E[B]^T Cov^-1 E[B] / (1 - gamma). A mass
                   far below it, or negative, says the FB target is biased (e.g. by the min
                   over two heads). Uninformative when E[B] ~ 0 (batch-normalised B).
+                  Its spread over 8 random actions of a state (0 for the true measure) is
+                  an action preference F holds whatever the reward.
   head gap        mean |F1^T z - F2^T z| at the policy's actions: the noise the min over
                   heads turns into a downward bias at every backup
   actor vs random share of states where mu(s, z) scores at least the best of 8 uniform
@@ -75,13 +77,15 @@ def diagnostics(model: FBModel, data: Any, states: int = 40_000, seed: int = 0) 
     q_heads = (f_both * z.double()).sum(-1)
     out["head_gap"] = float((q_heads[0] - q_heads[1]).abs().mean())
     q_pi = q_heads.mean(0)
-    q_rand = torch.stack(
-        [
-            (model.forward(s, z, torch.rand(m, a.shape[1], generator=gen) * 2 - 1, heads="both")
-             .double().mean(0) * z.double()).sum(-1)
-            for _ in range(8)
-        ]
-    )  # fmt: skip
+    f_rand = [
+        model.forward(s, z, torch.rand(m, a.shape[1], generator=gen) * 2 - 1, heads="both")
+        .double().mean(0)
+        for _ in range(8)
+    ]  # fmt: skip
+    q_rand = torch.stack([(f * z.double()).sum(-1) for f in f_rand])
+    # the measure's mass at 8 random actions of each state: its spread over actions is an
+    # action preference F holds whatever the reward (0 for the true measure)
+    out["measure_mass_action_std"] = float(torch.stack([f @ e_b for f in f_rand]).std(0).mean())
     out["actor_beats_best_of_8_random"] = float((q_pi >= q_rand.max(0).values).double().mean())
     out["saturated_actions"] = float((a.abs() > 0.95).double().mean())
     tasks: dict[str, Any] = {}
@@ -114,7 +118,8 @@ def main() -> None:
     print(
         f"Cov B eigenvalues {res['cov_b_eig_min']:.2f}-{res['cov_b_eig_max']:.2f}; "
         f"measure mass {res['measure_mass']:.1f} "
-        f"(unbiased fixed point {res['unbiased_mass']:.1f}); "
+        f"(unbiased fixed point {res['unbiased_mass']:.1f}; spread over actions "
+        f"{res['measure_mass_action_std']:.1f}); "
         f"head gap {res['head_gap']:.2f}; actor >= best of 8 random actions in "
         f"{100 * res['actor_beats_best_of_8_random']:.0f} % of states; saturated action "
         f"components {100 * res['saturated_actions']:.0f} %"
