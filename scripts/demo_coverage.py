@@ -81,11 +81,11 @@ def main() -> None:
             print(f"{task}: the demo has no actions; skipped")
             continue
         d_obs = torch.as_tensor(np.asarray(traj.observation[:-1], np.float32)) / s_scale
-        d_act = torch.as_tensor(np.asarray(traj.action, np.float32)) / a_scale
+        raw_act = torch.as_tensor(np.asarray(traj.action, np.float32))
         row = {
             "state": summary(nearest_distance(d_obs, states)),
-            "pair": summary(nearest_distance(torch.cat([d_obs, d_act], 1), pairs)),
-            "saturated": float((d_act * a_scale).abs().gt(0.99).float().mean()),
+            "pair": summary(nearest_distance(torch.cat([d_obs, raw_act / a_scale], 1), pairs)),
+            "saturated": float((raw_act.abs() > 0.99).float().mean()),
         }
         table["tasks"][task] = row
         print(

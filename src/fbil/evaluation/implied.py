@@ -22,7 +22,7 @@ pi_z and measures, in units of r_z's standard deviation over the dataset:
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
@@ -147,7 +147,7 @@ def probe_model(
     """The probe over tasks: per task, the first demo's return and ERFB's and z_r's rows."""
     b = dataset_backward(model, data)
     table: dict[str, Any] = {"domain": data.domain, "data": str(data.root), "demos": str(demos_dir)}
-    table["settings"] = {**cfg.__dict__}
+    table["settings"] = asdict(cfg)
     table["tasks"] = {}
     for task in tasks:
         reward = torch.from_numpy(data.reward(task)).reshape(-1, 1).float()
