@@ -12,13 +12,15 @@ budget_curve.json sits next to the results file or is passed with --budget-curve
 
 `--reuse FILE` (e.g. the domain's committed baselines.jsonl) copies FILE's lines of the
 very jobs a grid would run (same method, task, draw, demos, data, seed, episodes and
-budget) into that grid's results file first, so they are not run again: a grid at the
-`cpu` budget gives the curve its scale-1 point for free.
+budget) on the same data sample (`data_digest`) into that grid's results file first, so they
+are not run again: a grid at the `cpu` budget gives the curve its scale-1 point for free.
+`--merge CURVE` keeps CURVE's entries of the methods not run now (each with the tasks it
+was measured on), so a curve grows one method at a time.
 
 Usage: python scripts/budget_curve.py --methods bc,td3il,sqil \
            --tasks reach_top_left,loop --scales 0.25,0.5,1,2 --draws 2 --episodes 20 \
            --demos DIR [--data DIR] --out DIR [--budget cpu] [--workers N] [--threads N]
-           [--reuse RESULTS.jsonl]
+           [--reuse RESULTS.jsonl] [--merge budget_curve.json]
 """
 
 from __future__ import annotations
@@ -33,7 +35,13 @@ from typing import Any
 from fbil.checkpoint import atomic_write_text
 from fbil.errors import FbilError
 from fbil.evaluation.benchmark import job_key, make_jobs, read_results, run_benchmark
-from fbil.evaluation.budget_curve import build_curve, curve_point, write_curve
+from fbil.evaluation.budget_curve import (
+    build_curve,
+    curve_point,
+    merge_curves,
+    read_curve,
+    write_curve,
+)
 from fbil.evaluation.report import summarise
 from fbil.imitators.budgets import scaled_spec
 
@@ -56,12 +64,27 @@ def results_file(out: Path, spec: str) -> Path:
     return out / f"results_{spec}.jsonl"
 
 
-def reuse_lines(source: Path, jobs: list[Any], target: Path) -> int:
-    """Copy the lines of `source` that finished one of `jobs` (and are not in `target` yet)
-    into `target`; how many were copied."""
+def data_digest(data: str | None) -> str | None:
+    """The digest of the unsupervised dataset a grid trains on (None without one), which a
+    results line records as `data_digest`."""
+    if data is None:
+        return None
+    from fbil.data.dataset import load_dataset
+
+    return load_dataset(data).digest()
+
+
+def reuse_lines(source: Path, jobs: list[Any], target: Path, digest: str | None = None) -> int:
+    """Copy the lines of `source` that finished one of `jobs` on the same data sample
+    (`data_digest` equal to `digest`; a regeneration on another CPU is another sample) and
+    are not in `target` yet into `target`; how many were copied."""
     wanted = {job.key for job in jobs}
     have = {job_key(r) for r in read_results(target)}
-    rows = [r for r in read_results(source, repair=False) if job_key(r) in wanted - have]
+    rows = [
+        r
+        for r in read_results(source, repair=False)
+        if job_key(r) in wanted - have and r.get("data_digest") == digest
+    ]
     unique = list({job_key(r): r for r in rows}.values())  # one line per job
     if unique:
         kept = read_results(target)
@@ -83,11 +106,12 @@ def run_grids(args: argparse.Namespace, scales: list[float]) -> dict[float, tupl
     from fbil.fb.train import git_commit
 
     commit = git_commit()
+    digest = data_digest(args.data) if args.reuse else None
     for spec, jobs in grids.values():
         if args.reuse:
             out.mkdir(parents=True, exist_ok=True)
-            n = reuse_lines(Path(args.reuse), jobs, results_file(out, spec))
-            print(f"{spec}: {n} jobs reused from {args.reuse}")
+            n = reuse_lines(Path(args.reuse), jobs, results_file(out, spec), digest)
+            print(f"{spec}: {n} jobs reused from {args.reuse} (data_digest {digest})")
         started = time.perf_counter()
         new = run_benchmark(jobs, results_file(out, spec), args.workers, commit=commit,
                             threads=args.threads)  # fmt: skip
@@ -136,15 +160,28 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     p.add_argument("--workers", type=int, default=1, help="jobs run in parallel")
     p.add_argument("--threads", type=int, default=1, help="torch threads per worker")
     p.add_argument("--out", required=True, help="folder for results files and the curve")
-    p.add_argument("--reuse", default=None, help="a results file whose matching jobs count")
+    p.add_argument(
+        "--reuse", default=None,
+        help="a results file whose matching jobs (same job, same data_digest) count",
+    )  # fmt: skip
+    p.add_argument(
+        "--merge", default=None,
+        help="a budget_curve.json whose other methods' entries the new curve keeps",
+    )  # fmt: skip
     return p.parse_args(argv)
 
 
 def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
     try:
-        files = run_grids(args, _scales(args.scales))
-        json_path, png = write_curve(curve_from_results(args, files), args.out)
+        scales = _scales(args.scales)
+        merged = read_curve(args.merge) if args.merge else None
+        if merged:  # refuse an unmergeable curve before hours of jobs, not after
+            settings = {"budget": args.budget, "draws": args.draws, "episodes": args.episodes}
+            merge_curves(merged, {"domain": args.domain, "k": 1, **settings, "methods": {}})
+        files = run_grids(args, scales)
+        curve = curve_from_results(args, files)
+        json_path, png = write_curve(merge_curves(merged, curve) if merged else curve, args.out)
     except FbilError as exc:
         print(f"budget_curve: error: {exc}", file=sys.stderr)
         return 2

@@ -218,3 +218,56 @@ def test_reuse_takes_the_matching_jobs_of_a_results_file_instead_of_running_them
     assert (out / "results_smoke.jsonl").read_text().splitlines() == lines[:1]
     assert _script().main([*args, "--reuse", str(source)]) == 0  # nothing twice
     assert "smoke: 0 jobs reused" in capsys.readouterr().out
+
+
+def test_reuse_skips_lines_of_another_data_sample(
+    curve_dir: Path,
+    demos_dir: Path,  # noqa: F811
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """A line of the same job on another regeneration of the data (another `data_digest`)
+    is rerun, not copied: a curve never mixes two samples."""
+    line = json.loads((curve_dir / "results_smoke.jsonl").read_text().splitlines()[0])
+    source = tmp_path / "grid.jsonl"
+    source.write_text(json.dumps({**line, "data_digest": "0123456789abcdef"}) + "\n")
+    out = tmp_path / "curve"
+    args = ["--methods", "bc", "--tasks", "square", "--scales", "1", "--budget", "smoke"]
+    args += ["--draws", "1", "--episodes", "1", "--demos", str(demos_dir), "--out", str(out)]
+    assert _script().main([*args, "--reuse", str(source)]) == 0
+    printed = capsys.readouterr().out
+    assert "smoke: 0 jobs reused" in printed and "smoke: 1 jobs run" in printed
+
+
+def test_merge_keeps_the_other_methods_with_their_tasks(
+    curve_dir: Path,
+    demos_dir: Path,  # noqa: F811
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    old = json.loads((curve_dir / "budget_curve.json").read_text())
+    other = {**old["methods"]["bc"], "points": old["methods"]["bc"]["points"][:1]}
+    other.pop("tasks", None)  # an entry from before per-method tasks: the curve's tasks
+    committed = tmp_path / "committed.json"
+    committed.write_text(
+        json.dumps({**old, "tasks": ["loop"], "methods": {"sqil": other, "bc": other}})
+    )
+    out = tmp_path / "curve"
+    args = ["--methods", "bc", "--tasks", "square", "--scales", "1", "--budget", "smoke"]
+    args += ["--draws", "1", "--episodes", "1", "--demos", str(demos_dir), "--out", str(out)]
+    assert _script().main([*args, "--merge", str(committed)]) == 0
+    merged = json.loads((out / "budget_curve.json").read_text())
+    assert list(merged["methods"]) == ["sqil", "bc"] and merged["tasks"] == ["loop", "square"]
+    assert merged["methods"]["sqil"]["tasks"] == ["loop"]
+    assert merged["methods"]["sqil"]["points"] == other["points"]
+    assert merged["methods"]["bc"]["tasks"] == ["square"]
+    assert [p["budget"] for p in merged["methods"]["bc"]["points"]] == ["smoke"]
+    text = write_report(out / "results_smoke.jsonl", tmp_path / "report").read_text()
+    assert "| sqil | smoke@0.5 |" in text and "| bc | smoke |" in text
+    # Another draw count cannot be merged: refused in one line before any job runs.
+    capsys.readouterr()
+    twice = [a if a != "1" or args[i - 1] != "--draws" else "2" for i, a in enumerate(args)]
+    assert _script().main([*twice, "--merge", str(committed)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "another draws" in err[0], err
+    assert not (tmp_path / "curve" / "results_smoke.jsonl").read_text().count('"draw": 1')

@@ -77,7 +77,39 @@ def build_curve(
         }
         for m, found in points.items()
     }
+    for entry in methods.values():
+        entry["tasks"] = list(tasks)
     return {"domain": domain, "tasks": list(tasks), **settings, "methods": methods}
+
+
+MERGED_SETTINGS = ("budget", "draws", "episodes", "k")
+
+
+def merge_curves(old: dict[str, Any], new: dict[str, Any]) -> dict[str, Any]:
+    """`new` with the methods of `old` it does not have: a method's entry in `new` replaces
+    its entry in `old`, and each entry keeps the tasks it was measured on (an old entry
+    without them was measured on `old`'s tasks). The two must share the domain and the
+    settings that make points comparable (budget, draws, episodes, K)."""
+    if old.get("domain") != new.get("domain"):
+        raise FbilError(
+            f"cannot merge a {new.get('domain')} budget curve into one of {old.get('domain')}"
+        )
+    for key in MERGED_SETTINGS:
+        if key in old and old[key] != new.get(key):
+            raise FbilError(
+                f"cannot merge budget curves with another {key} ({new.get(key)!r} against "
+                f"{old[key]!r}); run the curve with the merged one's {key}"
+            )
+    kept = {
+        m: {**e, "tasks": list(e.get("tasks", old.get("tasks", [])))}
+        for m, e in old["methods"].items()
+        if m not in new["methods"]
+    }
+    methods = {**kept, **new["methods"]}
+    tasks = list(dict.fromkeys(t for e in methods.values() for t in e["tasks"]))
+    results = list(dict.fromkeys([*old.get("results", []), *new.get("results", [])]))
+    scales = sorted({*old.get("scales", []), *new.get("scales", [])})
+    return {**new, "tasks": tasks, "scales": scales, "results": results, "methods": methods}
 
 
 def write_curve(curve: dict[str, Any], out_dir: str | Path) -> tuple[Path, Path]:
@@ -179,7 +211,9 @@ def curve_section(curve: dict[str, Any], out_dir: Path) -> list[str]:
         f"{', '.join(curve.get('tasks', []))} ({draws} demo draws × {episodes} episodes "
         "per point): mean score over tasks and draws against the median time to policy. "
         "Dashed: the paper's score on the same tasks (Tables 5-7). A curve that is flat "
-        "at its right end means more training would not change the baseline's score.",
+        "at its right end means more training would not change the baseline's score. "
+        "A method's score is its mean over the tasks it was run on (the per-task columns; "
+        "– where it was not run).",
         "",
         *curve_table(curve),
         "",
