@@ -20,6 +20,7 @@ from fbil.baselines.oril import Discriminator, discriminator_loss
 from fbil.baselines.td3il import labels
 from fbil.data import list_episodes, load_dataset, load_episode
 from fbil.envs.relabel import relabel
+from fbil.errors import FbilError
 from fbil.evaluation.benchmark import make_jobs, run_job
 from fbil.imitation import Demos, Trajectory, from_arrays
 
@@ -302,6 +303,35 @@ def test_offline_td3_bc_alpha_reaches_the_actor_loss() -> None:
     plain = TD3(4, 2, OfflineTD3Config(hidden=32).td3("point_mass_maze"), seed=0)
     q = float(-plain.actor_loss(obs, act).detach())
     assert with_bc >= -2.5 - 1e-5 and abs(with_bc - float(-q)) > 1e-6
+
+
+def test_offline_td3_policy_delay_sets_how_often_the_actor_and_targets_move() -> None:
+    """`OfflineTD3Config.policy_delay` reaches TD3: at 1 the actor and the targets step
+    with every critic step (Meta's DDPG-style agent), at 2 every second one (TD3); 0 is
+    refused in one line, also as a budget setting."""
+    from fbil.agents.td3 import TD3
+    from fbil.baselines.offline_td3 import OfflineTD3Config
+
+    obs, act = torch.randn(16, 4), torch.rand(16, 2) * 2 - 1
+    rew, disc = torch.rand(16), torch.ones(16)
+    for delay in (1, 2):
+        cfg = OfflineTD3Config(hidden=32, batch_size=16, policy_delay=delay).td3("point_mass_maze")
+        agent = TD3(4, 2, cfg, seed=0)
+        before = [p.detach().clone() for p in agent.critic_targets.parameters()]
+        first = agent.update(obs, act, rew, obs, disc)
+        moved = [
+            not torch.equal(a, b)
+            for a, b in zip(before, agent.critic_targets.parameters(), strict=True)
+        ]
+        assert ("actor_loss" in first) == any(moved) == (delay == 1)
+        metrics = [first, *(agent.update(obs, act, rew, obs, disc) for _ in range(3))]
+        assert sum("actor_loss" in m for m in metrics) == 4 // delay
+    with pytest.raises(FbilError, match="policy_delay must be >= 1"):
+        OfflineTD3Config(policy_delay=0).td3("point_mass_maze")
+    from fbil.imitators import FitContext, get_imitator
+
+    config = get_imitator("td3il").settings(FitContext(budget="cpu,td3.policy_delay=1"))
+    assert config["config"]["td3"]["policy_delay"] == 1
 
 
 def test_offline_td3_on_step_sees_every_update_and_the_final_agent(fixture_data: Path) -> None:

@@ -52,6 +52,8 @@ class TD3Config:
     def __post_init__(self) -> None:
         if self.precision not in ("fp32", "bf16"):
             raise FbilError(f"unknown precision {self.precision!r}; valid: fp32, bf16")
+        if self.policy_delay < 1:
+            raise FbilError(f"policy_delay must be >= 1, got {self.policy_delay}")
         if not 0 <= self.offline_share < 1:
             raise FbilError(f"offline_share must be in [0, 1), got {self.offline_share}")
 
