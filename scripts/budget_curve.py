@@ -14,7 +14,8 @@ budget_curve.json sits next to the results file or is passed with --budget-curve
 very jobs a grid would run (same method, task, draw, demos, data, seed, episodes and
 budget) on the same data sample (`data_digest`) into that grid's results file first, so they
 are not run again: a grid at the `cpu` budget gives the curve its scale-1 point for free.
-`--merge CURVE` keeps CURVE's entries of the methods not run now (each with the tasks it
+`--no-run` writes the curve from the lines already in OUT's results files (jobs finished
+elsewhere, or a grid cut short), running none. `--merge CURVE` keeps CURVE's entries of the methods not run now (each with the tasks it
 was measured on), so a curve grows one method at a time.
 
 Usage: python scripts/budget_curve.py --methods bc,td3il,sqil \
@@ -112,6 +113,8 @@ def run_grids(args: argparse.Namespace, scales: list[float]) -> dict[float, tupl
             out.mkdir(parents=True, exist_ok=True)
             n = reuse_lines(Path(args.reuse), jobs, results_file(out, spec), digest)
             print(f"{spec}: {n} jobs reused from {args.reuse} (data_digest {digest})")
+        if args.no_run:
+            continue
         started = time.perf_counter()
         new = run_benchmark(jobs, results_file(out, spec), args.workers, commit=commit,
                             threads=args.threads)  # fmt: skip
@@ -165,6 +168,10 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
         help="a results file whose matching jobs (same job, same data_digest) count",
     )  # fmt: skip
     p.add_argument(
+        "--no-run", action="store_true",
+        help="run no job: write the curve from the lines already in OUT's results files",
+    )  # fmt: skip
+    p.add_argument(
         "--merge", default=None,
         help="a budget_curve.json whose other methods' entries the new curve keeps",
     )  # fmt: skip
@@ -181,6 +188,8 @@ def main(argv: list[str] | None = None) -> int:
             merge_curves(merged, {"domain": args.domain, "k": 1, **settings, "methods": {}})
         files = run_grids(args, scales)
         curve = curve_from_results(args, files)
+        if not any(e["points"] for e in curve["methods"].values()):
+            raise FbilError(f"no finished jobs of {args.methods} in {args.out}'s results files")
         json_path, png = write_curve(merge_curves(merged, curve) if merged else curve, args.out)
     except FbilError as exc:
         print(f"budget_curve: error: {exc}", file=sys.stderr)

@@ -171,6 +171,15 @@ def test_a_rerun_skips_finished_jobs_and_bad_scales_are_one_line(
     assert _script().main(args) == 0
     assert capsys.readouterr().out.count("0 jobs run") == 2
     assert (curve_dir / "results_smoke.jsonl").read_text() == before
+    again = json.loads((curve_dir / "budget_curve.json").read_text())
+    empty = curve_dir.parent / "no_run"
+    assert _script().main([*args[:-1], str(empty), "--no-run"]) == 2  # nothing to draw
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "no finished jobs of bc" in err[0], err
+    assert not list(empty.glob("*"))
+    assert _script().main([*args, "--no-run"]) == 0  # the lines there: the same curve
+    assert "jobs run" not in capsys.readouterr().out
+    assert json.loads((curve_dir / "budget_curve.json").read_text())["methods"] == again["methods"]
     assert _script().main([*args[:5], "0,1", *args[6:]]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "bad budget 'smoke@0'" in err[0], err
