@@ -15,8 +15,9 @@ very jobs a grid would run (same method, task, draw, demos, data, seed, episodes
 budget) on the same data sample (`data_digest`) into that grid's results file first, so they
 are not run again: a grid at the `cpu` budget gives the curve its scale-1 point for free.
 `--no-run` writes the curve from the lines already in OUT's results files (jobs finished
-elsewhere, or a grid cut short), running none. `--merge CURVE` keeps CURVE's entries of the methods not run now (each with the tasks it
-was measured on), so a curve grows one method at a time.
+elsewhere, or a grid cut short), running none. `--merge CURVE` keeps CURVE's entries of
+the methods not run now (each with the tasks it was measured on), so a curve grows one
+method at a time.
 
 Usage: python scripts/budget_curve.py --methods bc,td3il,sqil \
            --tasks reach_top_left,loop --scales 0.25,0.5,1,2 --draws 2 --episodes 20 \
