@@ -130,12 +130,17 @@ def _script() -> Any:
     return module
 
 
+def _args(demos: Path, out: Path, scales: str = "1", draws: str = "1") -> list[str]:
+    """The script's arguments for bc on square at smoke size, 1 episode per job."""
+    args = ["--methods", "bc", "--tasks", "square", "--scales", scales, "--budget", "smoke"]
+    return [*args, "--draws", draws, "--episodes", "1", "--demos", str(demos), "--out", str(out)]
+
+
 @pytest.fixture(scope="module")
 def curve_dir(demos_dir: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:  # noqa: F811
     """The script at smoke@0.5 and smoke for bc on one task, 1 draw x 1 episode."""
     out = tmp_path_factory.mktemp("curve")
-    args = ["--methods", "bc", "--tasks", "square", "--scales", "0.5,1", "--budget", "smoke"]
-    args += ["--draws", "1", "--episodes", "1", "--demos", str(demos_dir), "--out", str(out)]
+    args = _args(demos_dir, out, "0.5,1")
     assert _script().main(args) == 0
     return out
 
@@ -166,8 +171,7 @@ def test_a_rerun_skips_finished_jobs_and_bad_scales_are_one_line(
     capsys: pytest.CaptureFixture[str],
 ) -> None:
     before = (curve_dir / "results_smoke.jsonl").read_text()
-    args = ["--methods", "bc", "--tasks", "square", "--scales", "0.5,1", "--budget", "smoke"]
-    args += ["--draws", "1", "--episodes", "1", "--demos", str(demos_dir), "--out", str(curve_dir)]
+    args = _args(demos_dir, curve_dir, "0.5,1")
     assert _script().main(args) == 0
     assert capsys.readouterr().out.count("0 jobs run") == 2
     assert (curve_dir / "results_smoke.jsonl").read_text() == before
@@ -219,8 +223,7 @@ def test_reuse_takes_the_matching_jobs_of_a_results_file_instead_of_running_them
     other = {**json.loads(lines[0]), "draw": 7}  # a job the curve does not run
     source.write_text("\n".join([*lines, lines[0], json.dumps(other)]) + "\n")
     out = tmp_path / "curve"
-    args = ["--methods", "bc", "--tasks", "square", "--scales", "1", "--budget", "smoke"]
-    args += ["--draws", "1", "--episodes", "1", "--demos", str(demos_dir), "--out", str(out)]
+    args = _args(demos_dir, out)
     assert _script().main([*args, "--reuse", str(source)]) == 0
     printed = capsys.readouterr().out
     assert "smoke: 1 jobs reused" in printed and "smoke: 0 jobs run" in printed
@@ -241,8 +244,7 @@ def test_reuse_skips_lines_of_another_data_sample(
     source = tmp_path / "grid.jsonl"
     source.write_text(json.dumps({**line, "data_digest": "0123456789abcdef"}) + "\n")
     out = tmp_path / "curve"
-    args = ["--methods", "bc", "--tasks", "square", "--scales", "1", "--budget", "smoke"]
-    args += ["--draws", "1", "--episodes", "1", "--demos", str(demos_dir), "--out", str(out)]
+    args = _args(demos_dir, out)
     assert _script().main([*args, "--reuse", str(source)]) == 0
     printed = capsys.readouterr().out
     assert "smoke: 0 jobs reused" in printed and "smoke: 1 jobs run" in printed
@@ -262,8 +264,7 @@ def test_merge_keeps_the_other_methods_with_their_tasks(
         json.dumps({**old, "tasks": ["loop"], "methods": {"sqil": other, "bc": other}})
     )
     out = tmp_path / "curve"
-    args = ["--methods", "bc", "--tasks", "square", "--scales", "1", "--budget", "smoke"]
-    args += ["--draws", "1", "--episodes", "1", "--demos", str(demos_dir), "--out", str(out)]
+    args = _args(demos_dir, out)
     assert _script().main([*args, "--merge", str(committed)]) == 0
     merged = json.loads((out / "budget_curve.json").read_text())
     assert list(merged["methods"]) == ["sqil", "bc"] and merged["tasks"] == ["loop", "square"]
@@ -275,7 +276,7 @@ def test_merge_keeps_the_other_methods_with_their_tasks(
     assert "| sqil | smoke@0.5 |" in text and "| bc | smoke |" in text
     # Another draw count cannot be merged: refused in one line before any job runs.
     capsys.readouterr()
-    twice = [a if a != "1" or args[i - 1] != "--draws" else "2" for i, a in enumerate(args)]
+    twice = _args(demos_dir, out, draws="2")
     assert _script().main([*twice, "--merge", str(committed)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "another draws" in err[0], err
