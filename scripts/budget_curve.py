@@ -22,7 +22,7 @@ method at a time.
 Usage: python scripts/budget_curve.py --methods bc,td3il,sqil \
            --tasks reach_top_left,loop --scales 0.25,0.5,1,2 --draws 2 --episodes 20 \
            --demos DIR [--data DIR] --out DIR [--budget cpu] [--workers N] [--threads N]
-           [--reuse RESULTS.jsonl] [--merge budget_curve.json]
+           [--reuse RESULTS.jsonl] [--merge budget_curve.json] [--no-run]
 """
 
 from __future__ import annotations
