@@ -36,7 +36,7 @@ from typing import Any
 
 from fbil.checkpoint import atomic_write_text
 from fbil.errors import FbilError
-from fbil.evaluation.benchmark import job_key, make_jobs, read_results, run_benchmark
+from fbil.evaluation.benchmark import _dataset, job_key, make_jobs, read_results, run_benchmark
 from fbil.evaluation.budget_curve import (
     build_curve,
     curve_point,
@@ -68,12 +68,9 @@ def results_file(out: Path, spec: str) -> Path:
 
 def data_digest(data: str | None) -> str | None:
     """The digest of the unsupervised dataset a grid trains on (None without one), which a
-    results line records as `data_digest`."""
-    if data is None:
-        return None
-    from fbil.data.dataset import load_dataset
-
-    return load_dataset(data).digest()
+    results line records as `data_digest`; loaded through the benchmark's cache, so the
+    in-process jobs that follow do not load it again."""
+    return None if data is None else _dataset(str(data)).digest()
 
 
 def reuse_lines(source: Path, jobs: list[Any], target: Path, digest: str | None = None) -> int:
