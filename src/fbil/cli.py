@@ -535,6 +535,7 @@ def _cmd_benchmark(args: argparse.Namespace) -> int:
         data=args.data,
         budget=args.budget,
         goal_model=args.goal_model,
+        first_draw=args.first_draw,
     )
     before = len(read_results(args.out))
     bar = progress_bar(
@@ -912,6 +913,9 @@ def _add_benchmark(sub: Any) -> None:
     p.add_argument("--tasks", default="all", help="all, a task or a comma list")
     p.add_argument("--k", type=int, default=1, help="demonstrations per imitation")
     p.add_argument("--draws", type=int, default=5, help="demo draws (groups of K) per task")
+    p.add_argument(
+        "--first-draw", type=int, default=0, help="index of the first draw (0: from the start)"
+    )
     p.add_argument("--episodes", type=int, default=20, help="evaluation episodes per job")
     p.add_argument("--demo-set", default="standard", help="standard or shifted demos")
     _add_training_inputs(p)

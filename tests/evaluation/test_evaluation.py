@@ -8,6 +8,7 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -77,6 +78,28 @@ def test_bad_requests_are_one_line_errors(smoke_model_dir: Path, demos_dir: Path
         evaluate(model, no_task, "erfb", episodes=1)
     with pytest.raises(FbilError, match="no demonstrations for loop"):
         make_jobs(smoke_model_dir, demos_dir, "point_mass_maze", ["loop"], ["erfb"], 1, 1, 1)
+
+
+def test_first_draw_selects_the_same_jobs_as_the_full_grid(
+    smoke_model_dir: Path, demos_dir: Path
+) -> None:
+    def grid(draws: int, first: int = 0) -> list[Any]:
+        return make_jobs(
+            smoke_model_dir,
+            demos_dir,
+            "point_mass_maze",
+            ["square"],
+            ["erfb"],
+            draws,
+            1,
+            1,
+            first_draw=first,
+        )
+
+    assert [j.draw for j in grid(2, first=2)] == [2, 3]
+    assert grid(2, first=2) == grid(4)[2:]  # same jobs, hence the same results-file keys
+    with pytest.raises(FbilError, match="--first-draw must be >= 0"):
+        grid(1, first=-1)
 
 
 def _benchmark_cmd(model: Path, demos: Path, out: Path, *extra: str) -> list[str]:

@@ -99,12 +99,16 @@ def make_jobs(
     data: str | Path | None = None,
     budget: str = "cpu",
     goal_model: str | Path | None = None,
+    first_draw: int = 0,
 ) -> list[Job]:
-    """The grid, in a fixed order (tasks, then draws, then methods). `data`, `budget` and
-    `goal_model` go to the jobs of the methods that use them (a method that needs a
-    dataset without `data` is refused here, before any job runs)."""
+    """The grid, in a fixed order (tasks, then draws, then methods), with the demo draws
+    first_draw .. first_draw + draws - 1. `data`, `budget` and `goal_model` go to the jobs
+    of the methods that use them (a method that needs a dataset without `data` is refused
+    here, before any job runs)."""
     if draws < 1 or k < 1 or episodes < 1:
         raise FbilError("--draws, --k and --episodes must all be >= 1")
+    if first_draw < 0:
+        raise FbilError(f"--first-draw must be >= 0 (0: the first draw), got {first_draw}")
     inputs = _job_inputs(methods, model, data, budget, goal_model)
     demos_dir = Path(demos_dir)
     jobs = []
@@ -115,7 +119,7 @@ def make_jobs(
                 f"no demonstrations for {task} in {demos_dir} (expected {path.name}; "
                 "record them with `fbil demos`)"
             )
-        for draw in range(draws):
+        for draw in range(first_draw, first_draw + draws):
             for method in methods:
                 jobs.append(
                     Job(
