@@ -38,3 +38,25 @@ def test_bf16_losses_and_updates_stay_within_a_percent_of_fp32() -> None:
 def test_unknown_precision_is_refused() -> None:
     with pytest.raises(FbilError, match="valid: fp32, bf16"):
         TD3Config(precision="fp16")  # type: ignore[arg-type]
+
+
+def test_min_noisy_actor_loss_is_the_smoothed_minimum_of_both_critics() -> None:
+    """actor_q="min_noisy" (Meta's offline agent): -min(Q1, Q2)(s, clip(pi(s) + clipped
+    noise)), with the noise drawn from the agent's generator; "q1" is -Q1(s, pi(s))."""
+    cfg = TD3Config(hidden=32, actor_q="min_noisy", policy_noise=0.2, noise_clip=0.3)
+    agent = TD3(5, 2, cfg, seed=0)
+    obs, act = _batch(1)[0], _batch(1)[1]
+    g = torch.Generator()
+    g.set_state(agent.gen.get_state())
+    loss = float(agent.actor_loss(obs, act).detach())
+    with torch.no_grad():
+        pi = agent._pi(agent.actor, obs)
+        noise = (torch.randn(pi.shape, generator=g) * 0.2).clamp(-0.3, 0.3)
+        q = agent._q(agent.critics, obs, (pi + noise).clamp(-1, 1))
+        assert loss == pytest.approx(float(-q.min(-1).values.mean()), rel=1e-5)
+        q1 = float(-agent._q(agent.critics, obs, pi)[:, 0].mean())
+    plain = TD3(5, 2, TD3Config(hidden=32), seed=0)
+    assert float(plain.actor_loss(obs, act).detach()) == pytest.approx(q1, rel=1e-5)
+    assert abs(loss - q1) > 1e-6
+    with pytest.raises(FbilError, match="valid: q1, min_noisy"):
+        TD3Config(actor_q="min")  # type: ignore[arg-type]

@@ -2,6 +2,7 @@
 batches, and every baseline end to end at smoke size through `fbil evaluate` and the
 benchmark grid, on the maze fixture."""
 
+import dataclasses
 import json
 import math
 import subprocess
@@ -352,6 +353,24 @@ def test_offline_td3_on_step_sees_every_update_and_the_final_agent(fixture_data:
     assert seen == [1, 2, 3, 4, 5] and agents == {id(agent)}
     _, plain = train_offline_td3(dataset, labels, cfg, 0)
     assert plain == info  # the same seed gives the same last update with or without it
+
+
+def test_offline_td3_diagnostic_switches_reach_the_agent(fixture_data: Path) -> None:
+    """`td3.standardize=false` keeps the inputs raw (mean 0, std 1 stats) and
+    `td3.actor_q=min_noisy` reaches TD3's config, both also as budget settings."""
+    from fbil.baselines.offline_td3 import OfflineTD3Config, train_offline_td3
+    from fbil.imitators import FitContext, get_imitator
+
+    dataset = load_dataset(fixture_data)
+    cfg = OfflineTD3Config(steps=2, hidden=16, batch_size=32)
+    raw, _ = train_offline_td3(dataset, labels, dataclasses.replace(cfg, standardize=False), 0)
+    assert torch.equal(raw.obs_stats, torch.stack([torch.zeros(4), torch.ones(4)]))
+    scaled, _ = train_offline_td3(dataset, labels, cfg, 0)
+    assert not torch.equal(scaled.obs_stats, raw.obs_stats)
+    assert OfflineTD3Config(actor_q="min_noisy").td3("point_mass_maze").actor_q == "min_noisy"
+    spec = "cpu,td3.standardize=false,td3.actor_q=min_noisy"
+    config = get_imitator("td3il").settings(FitContext(budget=spec))["config"]["td3"]
+    assert config["standardize"] is False and config["actor_q"] == "min_noisy"
 
 
 def test_sac_oracle_hook_and_no_expert_rows(fixture_data: Path) -> None:

@@ -5,6 +5,7 @@ Update, for a batch (s, a, r, s', discount):
   a'  = clip(pi_target(s') + clip(N(0, policy_noise), +-noise_clip), -1, 1)
   y   = r + discount * gamma * min(Q1_target, Q2_target)(s', a')
   critics regress y; every `policy_delay` updates the actor maximises Q1(s, pi(s))
+  (or, with actor_q="min_noisy", min(Q1, Q2)(s, clip(pi(s) + clip(N(0, policy_noise)))))
   (offline with bc_alpha: maximise lambda Q1(s, pi(s)) - |pi(s) - a|^2,
   lambda = bc_alpha / mean|Q1|), then all targets move by Polyak averaging.
 """
@@ -34,6 +35,10 @@ class TD3Config:
     noise_clip: float = 0.5
     policy_delay: int = 2
     bc_alpha: float | None = None  # TD3+BC's alpha (offline); None: plain TD3
+    # The actor's objective: "q1" is Fujimoto's Q1(s, pi(s)); "min_noisy" is the smoothed,
+    # more conservative min(Q1, Q2)(s, pi(s) + clipped noise) of Meta's offline DDPG-style
+    # agent (docs/td3-reference-audit.md, D5).
+    actor_q: Literal["q1", "min_noisy"] = "q1"
     exploration_noise: float = 0.2  # online: Gaussian noise on actions while collecting
     # n-step returns along episodes (the dataset's offline, the replay buffer's online).
     # The maze's mass moves ~2 mm per step, so n steps of exploration data end close to
@@ -52,6 +57,8 @@ class TD3Config:
     def __post_init__(self) -> None:
         if self.precision not in ("fp32", "bf16"):
             raise FbilError(f"unknown precision {self.precision!r}; valid: fp32, bf16")
+        if self.actor_q not in ("q1", "min_noisy"):
+            raise FbilError(f"unknown actor_q {self.actor_q!r}; valid: q1, min_noisy")
         if self.policy_delay < 1:
             raise FbilError(f"policy_delay must be >= 1, got {self.policy_delay}")
         if not 0 <= self.offline_share < 1:
@@ -191,9 +198,15 @@ class TD3:
         return loss, q.detach().mean()
 
     def actor_loss(self, obs: torch.Tensor, action: torch.Tensor) -> torch.Tensor:
-        """-Q1(s, pi(s)); with bc_alpha, TD3+BC's -lambda Q1 + |pi(s) - a|^2."""
+        """-Q(s, pi(s)) (Q1, or min(Q1, Q2) at a noisy pi(s) with actor_q="min_noisy"); with
+        bc_alpha, TD3+BC's -lambda Q + |pi(s) - a|^2."""
         pi = self._pi(self.actor, obs)
-        q_pi = self._run(self.critics[0], torch.cat([self._norm(obs), pi], -1)).squeeze(-1)
+        if self.cfg.actor_q == "min_noisy":
+            eps = torch.randn(pi.shape, generator=self.gen) * self.cfg.policy_noise
+            noisy = (pi + eps.clamp(-self.cfg.noise_clip, self.cfg.noise_clip)).clamp(-1, 1)
+            q_pi = self._q(self.critics, obs, noisy).min(-1).values
+        else:
+            q_pi = self._run(self.critics[0], torch.cat([self._norm(obs), pi], -1)).squeeze(-1)
         if self.cfg.bc_alpha is None:
             return -q_pi.mean()
         lam = self.cfg.bc_alpha / q_pi.abs().mean().detach()

@@ -43,6 +43,12 @@ class OfflineTD3Config:
     # as the ORIL and OTR reference code trains its policy; None: plain TD3, the paper's
     # "offline RL agent" (App. B). A diagnostic option, off in every budget.
     bc_alpha: float | None = None
+    # The actor's objective, TD3's "q1" or the reference agent's "min_noisy" (see TD3Config);
+    # a diagnostic option, "q1" in every budget.
+    actor_q: Literal["q1", "min_noisy"] = "q1"
+    # Standardise the networks' inputs by the dataset's mean and std (TD3+BC); False feeds
+    # raw states, as Meta's agent does (its first layer's layer norm + tanh only). Diagnostic.
+    standardize: bool = True
 
     def td3(self, domain: str) -> TD3Config:
         return TD3Config(
@@ -56,6 +62,7 @@ class OfflineTD3Config:
             policy_delay=self.policy_delay,
             precision=self.precision,
             bc_alpha=self.bc_alpha,
+            actor_q=self.actor_q,
         )
 
 
@@ -120,7 +127,8 @@ def train_offline_td3(
     after update t (1-based): a diagnostic's budget curve within one run."""
     spec = config.td3(dataset.domain)
     agent = TD3(dataset.observation.shape[1], dataset.action.shape[1], spec, seed)
-    agent.set_obs_stats(dataset.observation)
+    if config.standardize:
+        agent.set_obs_stats(dataset.observation)
     sample = MixedSampler(dataset, expert, spec.batch_size, expert_ratio, agent.gen)
     last: dict[str, float] = {}
     for t in range(1, config.steps + 1):
