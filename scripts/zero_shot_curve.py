@@ -70,9 +70,16 @@ def main(argv: list[str] | None = None) -> int:
     torch.set_num_threads(args.threads)
     try:
         out = args.out or args.run / "zero_shot_curve.json"
-        rows = json.loads(out.read_text())["rows"] if out.is_file() else []
+        found = candidates(args.run)
+        saved = json.loads(out.read_text()) if out.is_file() else {"run": str(args.run)}
+        if saved.get("run") != str(args.run):  # resume only the same run's curve
+            raise FbilError(
+                f"{out} holds the curve of another run ({saved.get('run')}); pass another "
+                "--out, or delete it to start this run's curve"
+            )
+        rows = saved.get("rows", [])
         done = {r["step"] for r in rows}
-        todo = [(s, p) for s, p in candidates(args.run) if s not in done]
+        todo = [(s, p) for s, p in found if s not in done]
         dataset = load_dataset(args.data) if todo else None
         if dataset is not None:
             tasks = (

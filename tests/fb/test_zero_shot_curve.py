@@ -1,5 +1,6 @@
 """`scripts/zero_shot_curve.py`: one row per snapshot and for the run's model, steps in
-order, finished steps not evaluated again, and a one-line error for a folder without a run."""
+order, finished steps not evaluated again, and one-line errors for a folder without a run
+and for an --out that holds another run's curve."""
 
 from __future__ import annotations
 
@@ -42,3 +43,9 @@ def test_curve_rows_per_snapshot_and_resume(
     empty = _run(str(tmp_path / "nothing"), *args)
     assert empty.returncode == 2 and empty.stderr.count("\n") == 1
     assert "no snapshots or model" in empty.stderr
+    other = tmp_path / "other_run"
+    shutil.copytree(run, other)
+    mixed = _run(str(other), *args)  # --out is the first run's curve: never mix two runs
+    assert mixed.returncode == 2 and mixed.stderr.count("\n") == 1
+    assert "holds the curve of another run" in mixed.stderr
+    assert json.loads(out.read_text())["rows"] == rows
