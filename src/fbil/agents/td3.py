@@ -177,6 +177,11 @@ class TD3:
         for net, tgt in ((self.actor, self.actor_target), (self.critics, self.critic_targets)):
             torch._foreach_lerp_(list(tgt.parameters()), list(net.parameters()), self.cfg.tau)
 
+    def _smoothed(self, action: torch.Tensor, eps: torch.Tensor) -> torch.Tensor:
+        """TD3's target policy smoothing: the action plus clipped noise, kept in [-1, 1]."""
+        clip = self.cfg.noise_clip
+        return (action + eps.clamp(-clip, clip)).clamp(-1, 1)
+
     def critic_loss(
         self,
         obs: torch.Tensor,
@@ -189,8 +194,7 @@ class TD3:
         """Both critics' squared TD errors against the clipped double-Q target, and mean Q."""
         cfg = self.cfg
         with torch.no_grad():
-            noise = eps.clamp(-cfg.noise_clip, cfg.noise_clip)
-            next_action = (self._pi(self.actor_target, next_obs) + noise).clamp(-1, 1)
+            next_action = self._smoothed(self._pi(self.actor_target, next_obs), eps)
             next_q = self._q(self.critic_targets, next_obs, next_action).min(-1).values
             target = reward + discount * cfg.gamma * next_q
         q = self._q(self.critics, obs, action)
@@ -203,8 +207,7 @@ class TD3:
         pi = self._pi(self.actor, obs)
         if self.cfg.actor_q == "min_noisy":
             eps = torch.randn(pi.shape, generator=self.gen) * self.cfg.policy_noise
-            noisy = (pi + eps.clamp(-self.cfg.noise_clip, self.cfg.noise_clip)).clamp(-1, 1)
-            q_pi = self._q(self.critics, obs, noisy).min(-1).values
+            q_pi = self._q(self.critics, obs, self._smoothed(pi, eps)).min(-1).values
         else:
             q_pi = self._run(self.critics[0], torch.cat([self._norm(obs), pi], -1)).squeeze(-1)
         if self.cfg.bc_alpha is None:
