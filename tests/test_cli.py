@@ -239,3 +239,36 @@ def test_report_refuses_results_that_mix_budgets(tmp_path: Path) -> None:
     ]
     with pytest.raises(FbilError, match="several budgets of bc"):
         summarise(rows)
+
+
+@pytest.mark.parametrize(
+    "device, message",
+    [("gpu", "expected cpu, cuda or cuda:N"), ("cuda:x", "expected cpu"), ("cpu:1", "expected")],
+)
+def test_pretrain_refuses_an_unknown_device_in_one_line(
+    device: str,
+    message: str,
+    fixture_data: Path,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    from fbil.cli import main
+
+    args = ["pretrain", "point_mass_maze", "--data", str(fixture_data), "--preset", "smoke"]
+    assert main([*args, "--out", str(tmp_path / "out"), "--device", device]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("fbil: error:") and message in lines[0]
+    assert not (tmp_path / "out").exists()
+
+
+def test_cuda_without_a_device_and_the_gpu_precision_note() -> None:
+    from fbil.cli import _check_device, _device_note
+    from fbil.errors import FbilError
+
+    _check_device("cuda:1", cuda_available=True)
+    with pytest.raises(FbilError, match="no CUDA device here; use --device cpu"):
+        _check_device("cuda", cuda_available=False)
+    assert _device_note("cpu", "bf16", compile=True) is None
+    assert _device_note("cuda", "fp32", compile=True) is None
+    assert "precision=fp32" in (_device_note("cuda", "bf16", compile=False) or "")
+    assert "recompiled" in (_device_note("cuda:0", "bf16", compile=True) or "")

@@ -228,6 +228,28 @@ def _settings(items: list[str] | None, *configs: Any) -> list[dict[str, Any]]:
     return out
 
 
+def _check_device(device: str, cuda_available: bool) -> None:
+    """`--device`: cpu, cuda or cuda:N, and CUDA only where torch sees a device."""
+    kind, _, index = device.partition(":")
+    if kind not in ("cpu", "cuda") or (index and (kind == "cpu" or not index.isdigit())):
+        raise FbilError(f"--device {device!r}: expected cpu, cuda or cuda:N")
+    if kind == "cuda" and not cuda_available:
+        raise FbilError(f"--device {device}: no CUDA device here; use --device cpu")
+
+
+def _device_note(device: str, precision: str, compile: bool) -> str | None:
+    """On a GPU the `cpu` presets' bf16 autocast buys nothing and breaks --compile
+    (docs/speed.md, "On a GPU"): one line saying so, or None."""
+    if not device.startswith("cuda") or precision != "bf16":
+        return None
+    if compile:
+        return (
+            "--compile with bf16 on CUDA recompiled at every step in fbil's GPU check; "
+            "add --set precision=fp32 (docs/speed.md)"
+        )
+    return "on CUDA, fp32 trains as fast as bf16 or faster: consider --set precision=fp32"
+
+
 def _cmd_pretrain(args: argparse.Namespace) -> int:
     import dataclasses
 
@@ -238,8 +260,7 @@ def _cmd_pretrain(args: argparse.Namespace) -> int:
     from fbil.fb.config import preset
     from fbil.fb.train import FBTrainer
 
-    if args.device.startswith("cuda") and not torch.cuda.is_available():
-        raise FbilError("--device cuda: no CUDA device here; use --device cpu")
+    _check_device(args.device, torch.cuda.is_available())
     model_cfg, train_cfg = preset(args.domain, args.preset)
     overrides = {
         k: v
@@ -256,6 +277,9 @@ def _cmd_pretrain(args: argparse.Namespace) -> int:
     model_cfg = dataclasses.replace(model_cfg, **set_model)
     train_cfg = dataclasses.replace(train_cfg, **overrides)
     dataset = load_dataset(args.data, domain=args.domain)
+    note = _device_note(args.device, train_cfg.precision, args.compile)
+    if note:
+        print(f"fbil: note: {note}", file=sys.stderr)
     trainer = FBTrainer(model_cfg, train_cfg, dataset, device=args.device, compile=args.compile)
     manifest = read_manifest(args.data) or {}
     model = trainer.fit(args.out, resume=args.resume, progress=not args.json, manifest=manifest)
