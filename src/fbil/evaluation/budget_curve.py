@@ -143,31 +143,51 @@ def find_curve(results: Sequence[str | Path], explicit: str | Path | None) -> Pa
 
 
 def curve_figure(curve: dict[str, Any], out: Path) -> Path:
-    """Score against median time to policy (log x), one line per method with its scales
-    marked; the paper's score on the same tasks as a dashed level in the method's colour."""
+    """One panel per method (shared score axis): score against median time to policy (log
+    x), each point marked with its scale, the paper's score on the same tasks dashed."""
     from fbil.envs.render import _pyplot, _save
 
     plt = _pyplot()
-    fig, ax = plt.subplots(figsize=(5.2, 3.4), dpi=120)
-    for i, (method, entry) in enumerate(curve["methods"].items()):
-        colour = f"C{i % 10}"
-        pts = entry["points"]
-        xs, ys = [p["seconds_median"] for p in pts], [p["score_pct"] for p in pts]
-        err = [0.0 if math.isnan(p["ci95_pct"]) else p["ci95_pct"] for p in pts]
-        ax.errorbar(xs, ys, yerr=err, color=colour, marker="o", ms=4, capsize=2, label=method)
-        for p, x, y in zip(pts, xs, ys, strict=True):
-            ax.annotate(f"×{p['scale']:g}", (x, y), fontsize=6, xytext=(3, 3), ha="left",
-                        textcoords="offset points")  # fmt: skip
-        if entry.get("paper_score_pct") is not None:
-            ax.axhline(entry["paper_score_pct"], color=colour, ls="--", lw=1)
-    ax.plot([], [], "k--", lw=1, label="paper, same tasks")
-    ax.set_xscale("log")
-    ax.set_xlabel("time to policy (s, median over jobs)")
-    ax.set_ylabel("imitation score (%)")
+    methods = list(curve["methods"].items())
+    cols = min(4, max(1, len(methods)))
+    rows = math.ceil(len(methods) / cols)
+    fig, axes = plt.subplots(
+        rows, cols, figsize=(2.6 * cols + 0.6, 2.3 * rows + 0.5), dpi=120, sharey=True,
+        squeeze=False,
+    )  # fmt: skip
+    for i, (method, entry) in enumerate(methods):
+        ax = axes[i // cols][i % cols]
+        _curve_panel(ax, method, entry, f"C{i % 10}")
+        if i % cols == 0:
+            ax.set_ylabel("imitation score (%)", fontsize=7)
+        if i // cols == rows - 1:
+            ax.set_xlabel("time to policy (s)", fontsize=7)
+    for j in range(len(methods), rows * cols):
+        axes[j // cols][j % cols].set_visible(False)
     tasks = ", ".join(curve.get("tasks", []))
-    ax.set_title(f"{curve.get('domain', '')}: score against budget ({tasks})", fontsize=8)
-    ax.legend(fontsize=6)
+    fig.suptitle(
+        f"{curve.get('domain', '')}: score against budget ({tasks}); dashed: the paper, same tasks",
+        fontsize=8,
+    )
+    fig.tight_layout()
     return _save(fig, out)
+
+
+def _curve_panel(ax: Any, method: str, entry: dict[str, Any], colour: str) -> None:
+    pts = entry["points"]
+    xs, ys = [p["seconds_median"] for p in pts], [p["score_pct"] for p in pts]
+    err = [0.0 if math.isnan(p["ci95_pct"]) else p["ci95_pct"] for p in pts]
+    ax.errorbar(xs, ys, yerr=err, color=colour, marker="o", ms=4, capsize=2)
+    for p, x, y in zip(pts, xs, ys, strict=True):
+        ax.annotate(f"×{p['scale']:g}", (x, y), fontsize=6, xytext=(3, 3), ha="left",
+                    textcoords="offset points")  # fmt: skip
+    if entry.get("paper_score_pct") is not None:
+        ax.axhline(entry["paper_score_pct"], color=colour, ls="--", lw=1)
+    ax.set_xscale("log")
+    ax.set_xticks(xs, [f"{x:.0f}" for x in xs], minor=False)  # the points' own times
+    ax.set_xticks([], minor=True)
+    ax.tick_params(labelsize=6)
+    ax.set_title(f"{method} ({', '.join(entry.get('tasks', []))})", fontsize=7)
 
 
 def _fmt(x: float | None) -> str:
