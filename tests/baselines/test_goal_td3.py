@@ -246,3 +246,30 @@ def test_the_radius_horizon_is_the_median_distance_h_steps_apart_in_one_episode(
         median_step(data, None, 10**7)
     with pytest.raises(FbilError, match="epsilon_horizon"):
         dataclasses.replace(goal_preset("point_mass_maze", "smoke"), epsilon_horizon=0)
+
+
+def test_the_actor_schedule_of_meta_goal_agent_can_be_set(
+    fixture_data: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """`--set policy_delay=1 --set actor_q=min_noisy` reach the TD3 learner (an actor step
+    at every update) and the saved config; a wrong name is one line."""
+    data = load_dataset(fixture_data)
+
+    def actor_moves_at_first_update(cfg: Any) -> bool:
+        trainer = GoalTD3Trainer(cfg, data)
+        before = [p.clone() for p in trainer.agent.actor.parameters()]
+        trainer.update()
+        after = trainer.agent.actor.parameters()
+        return any(not torch.equal(a, b) for a, b in zip(before, after, strict=True))
+
+    meta = dataclasses.replace(SMALL, policy_delay=1, actor_q="min_noisy")
+    assert GoalTD3Trainer(meta, data).agent.cfg.actor_q == "min_noisy"
+    assert actor_moves_at_first_update(meta) and not actor_moves_at_first_update(SMALL)
+    args = ["pretrain-goal", "point_mass_maze", "--data", str(fixture_data), "--preset", "smoke"]
+    out = tmp_path / "goal"
+    assert main([*args, "--out", str(out), "--set", "actor_q=min_noisy", "--set", "steps=5"]) == 0
+    assert json.loads((out / CONFIG).read_text())["train_config"]["actor_q"] == "min_noisy"
+    capsys.readouterr()
+    assert main([*args, "--out", str(tmp_path / "bad"), "--set", "actor_q=mean"]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and "unknown actor_q 'mean'" in lines[0]

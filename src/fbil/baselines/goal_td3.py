@@ -66,6 +66,10 @@ class GoalTD3Config:
     tau: float = 0.01  # target momentum 0.99
     policy_noise: float = 0.2
     noise_clip: float = 0.3
+    # Actor updates every policy_delay critic updates on actor_q (TD3Config's meanings):
+    # Meta's goal agent updates every step on the min of both critics at a noisy action.
+    policy_delay: int = 2
+    actor_q: str = "q1"
     her_ratio: float = 1.0  # goals from the episode's future; the rest: random states
     epsilon: float | None = None  # goal radius; None: epsilon_steps x the median step
     epsilon_steps: float = 1.0  # x the median |s_{t+h} - s_t| in the `distance` metric
@@ -96,7 +100,12 @@ class GoalTD3Config:
         """The TD3 settings; its one learning rate is the critic's (the trainer sets the
         actor's)."""
         same = ("hidden", "batch_size", "gamma", "tau", "policy_noise", "noise_clip")
-        return TD3Config(lr=self.critic_lr, **{k: getattr(self, k) for k in same})
+        return TD3Config(
+            lr=self.critic_lr,
+            policy_delay=self.policy_delay,
+            actor_q=self.actor_q,  # type: ignore[arg-type]  # TD3Config checks the name
+            **{k: getattr(self, k) for k in same},
+        )
 
 
 PRESETS = ("cpu", "smoke")
