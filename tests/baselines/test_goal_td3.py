@@ -273,3 +273,26 @@ def test_the_actor_schedule_of_meta_goal_agent_can_be_set(
     assert main([*args, "--out", str(tmp_path / "bad"), "--set", "actor_q=mean"]) == 2
     lines = capsys.readouterr().err.strip().splitlines()
     assert len(lines) == 1 and "unknown actor_q 'mean'" in lines[0]
+
+
+def test_the_fixed_goal_check_scores_a_goal_model_and_refuses_a_missing_demo(
+    fixture_data: Path,
+    demos_dir: Path,  # noqa: F811
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    from tests.script_module import load_script
+
+    out = tmp_path / "goal"
+    args = ["pretrain-goal", "point_mass_maze", "--data", str(fixture_data), "--preset", "smoke"]
+    assert main([*args, "--out", str(out), "--set", "steps=20"]) == 0
+    check = load_script("goal_reach_check").main
+    capsys.readouterr()
+    base = [str(out), "--demos", str(demos_dir), "--episodes", "1", "--draw", "0"]
+    assert check([*base, "--tasks", "square", "--json"]) == 0
+    row = json.loads(capsys.readouterr().out)["tasks"]["square"]
+    assert 0.0 <= row["reached_share"] <= 1.0 and np.isfinite(row["q_start_mean"])
+    assert row["epsilon"] == GoalModel.load(out).config.epsilon
+    assert check([*base, "--tasks", "loop"]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("goal_reach_check: error:")
