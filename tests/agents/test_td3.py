@@ -60,3 +60,29 @@ def test_min_noisy_actor_loss_is_the_smoothed_minimum_of_both_critics() -> None:
     assert abs(loss - q1) > 1e-6
     with pytest.raises(FbilError, match="valid: q1, min_noisy"):
         TD3Config(actor_q="min")  # type: ignore[arg-type]
+
+
+def test_the_td_target_is_clamped_to_the_set_range() -> None:
+    """target_min / target_max clamp y = r + discount gamma min Q_target(s', a') before
+    the critics regress it; unset, y is left alone."""
+    obs, act, reward, nxt, disc = _batch(2)  # rewards in [0, 10)
+    eps = torch.zeros_like(act)
+    losses = {}
+    for name, cfg in {
+        "free": TD3Config(hidden=32),
+        "clamped": TD3Config(hidden=32, target_min=0.0, target_max=1.0),
+    }.items():
+        agent = TD3(5, 2, cfg, seed=0)
+        with torch.no_grad():
+            nq = agent._q(
+                agent.critic_targets, nxt, agent._smoothed(agent._pi(agent.actor_target, nxt), eps)
+            )
+            y = reward + disc * cfg.gamma * nq.min(-1).values
+            y = y.clamp(0.0, 1.0) if name == "clamped" else y
+            q = agent._q(agent.critics, obs, act)
+            want = float(((q[:, 0] - y) ** 2).mean() + ((q[:, 1] - y) ** 2).mean())
+        losses[name] = float(agent.critic_loss(obs, act, reward, nxt, disc, eps)[0].detach())
+        assert losses[name] == pytest.approx(want, rel=1e-5)
+    assert losses["free"] > 10 * losses["clamped"]  # rewards up to 10 against a cap of 1
+    with pytest.raises(FbilError, match=r"target_min \(1.0\) must be below target_max"):
+        TD3Config(target_min=1.0, target_max=1.0)

@@ -251,8 +251,9 @@ def test_the_radius_horizon_is_the_median_distance_h_steps_apart_in_one_episode(
 def test_the_actor_schedule_of_meta_goal_agent_can_be_set(
     fixture_data: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    """`--set policy_delay=1 --set actor_q=min_noisy` reach the TD3 learner (an actor step
-    at every update) and the saved config; a wrong name is one line."""
+    """`--set policy_delay=1 --set actor_q=min_noisy` (and the target's clamp) reach the
+    TD3 learner (an actor step at every update) and the saved config; a wrong name is one
+    line."""
     data = load_dataset(fixture_data)
 
     def actor_moves_at_first_update(cfg: Any) -> bool:
@@ -262,8 +263,9 @@ def test_the_actor_schedule_of_meta_goal_agent_can_be_set(
         after = trainer.agent.actor.parameters()
         return any(not torch.equal(a, b) for a, b in zip(before, after, strict=True))
 
-    meta = dataclasses.replace(SMALL, policy_delay=1, actor_q="min_noisy")
-    assert GoalTD3Trainer(meta, data).agent.cfg.actor_q == "min_noisy"
+    meta = dataclasses.replace(SMALL, policy_delay=1, actor_q="min_noisy", target_max=50.0)
+    agent_cfg = GoalTD3Trainer(meta, data).agent.cfg
+    assert agent_cfg.actor_q == "min_noisy" and agent_cfg.target_max == 50.0
     assert actor_moves_at_first_update(meta) and not actor_moves_at_first_update(SMALL)
     args = ["pretrain-goal", "point_mass_maze", "--data", str(fixture_data), "--preset", "smoke"]
     out = tmp_path / "goal"

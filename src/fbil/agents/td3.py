@@ -4,6 +4,8 @@
 Update, for a batch (s, a, r, s', discount):
   a'  = clip(pi_target(s') + clip(N(0, policy_noise), +-noise_clip), -1, 1)
   y   = r + discount * gamma * min(Q1_target, Q2_target)(s', a')
+        (clamped to [target_min, target_max] when set: e.g. [0, 1/(1 - gamma)] for 0/1
+        rewards, the range a fixed point can have, as HER's reference clips its target)
   critics regress y; every `policy_delay` updates the actor maximises Q1(s, pi(s))
   (or, with actor_q="min_noisy", min(Q1, Q2)(s, clip(pi(s) + clip(N(0, policy_noise)))))
   (offline with bc_alpha: maximise lambda Q1(s, pi(s)) - |pi(s) - a|^2,
@@ -39,6 +41,8 @@ class TD3Config:
     # more conservative min(Q1, Q2)(s, pi(s) + clipped noise) of Meta's offline DDPG-style
     # agent (docs/td3-reference-audit.md, D5).
     actor_q: Literal["q1", "min_noisy"] = "q1"
+    target_min: float | None = None  # None: the TD target is not clamped from below
+    target_max: float | None = None  # None: nor from above
     exploration_noise: float = 0.2  # online: Gaussian noise on actions while collecting
     # n-step returns along episodes (the dataset's offline, the replay buffer's online).
     # The maze's mass moves ~2 mm per step, so n steps of exploration data end close to
@@ -61,6 +65,9 @@ class TD3Config:
             raise FbilError(f"unknown actor_q {self.actor_q!r}; valid: q1, min_noisy")
         if self.policy_delay < 1:
             raise FbilError(f"policy_delay must be >= 1, got {self.policy_delay}")
+        lo, hi = self.target_min, self.target_max
+        if lo is not None and hi is not None and lo >= hi:
+            raise FbilError(f"target_min ({lo}) must be below target_max ({hi})")
         if not 0 <= self.offline_share < 1:
             raise FbilError(f"offline_share must be in [0, 1), got {self.offline_share}")
 
@@ -197,6 +204,8 @@ class TD3:
             next_action = self._smoothed(self._pi(self.actor_target, next_obs), eps)
             next_q = self._q(self.critic_targets, next_obs, next_action).min(-1).values
             target = reward + discount * cfg.gamma * next_q
+            if cfg.target_min is not None or cfg.target_max is not None:
+                target = target.clamp(cfg.target_min, cfg.target_max)
         q = self._q(self.critics, obs, action)
         loss = F.mse_loss(q[:, 0], target) + F.mse_loss(q[:, 1], target)
         return loss, q.detach().mean()

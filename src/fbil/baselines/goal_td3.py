@@ -70,6 +70,8 @@ class GoalTD3Config:
     # Meta's goal agent updates every step on the min of both critics at a noisy action.
     policy_delay: int = 2
     actor_q: str = "q1"
+    target_min: float | None = None  # the TD target's clamp (TD3Config's); for the 0/1
+    target_max: float | None = None  # goal reward, [0, 1/(1 - gamma)] bounds every fixed point
     her_ratio: float = 1.0  # goals from the episode's future; the rest: random states
     epsilon: float | None = None  # goal radius; None: epsilon_steps x the median step
     epsilon_steps: float = 1.0  # x the median |s_{t+h} - s_t| in the `distance` metric
@@ -99,13 +101,9 @@ class GoalTD3Config:
     def td3(self) -> TD3Config:
         """The TD3 settings; its one learning rate is the critic's (the trainer sets the
         actor's)."""
-        same = ("hidden", "batch_size", "gamma", "tau", "policy_noise", "noise_clip")
-        return TD3Config(
-            lr=self.critic_lr,
-            policy_delay=self.policy_delay,
-            actor_q=self.actor_q,  # type: ignore[arg-type]  # TD3Config checks the name
-            **{k: getattr(self, k) for k in same},
-        )
+        same: tuple[str, ...] = ("hidden", "batch_size", "gamma", "tau", "policy_noise")
+        same += ("noise_clip", "policy_delay", "actor_q", "target_min", "target_max")
+        return TD3Config(lr=self.critic_lr, **{k: getattr(self, k) for k in same})
 
 
 PRESETS = ("cpu", "smoke")
