@@ -5,6 +5,7 @@ its one-line errors, and `pretrain-goal` -> `evaluate --methods goal_td3` end to
 import dataclasses
 import inspect
 import json
+import shutil
 from pathlib import Path
 from typing import Any
 
@@ -162,7 +163,13 @@ def test_a_resumed_pretraining_equals_an_uninterrupted_one(
     with pytest.raises(FbilError, match=r"other settings \(hidden\)"):
         other = dataclasses.replace(cfg, hidden=16)
         GoalTD3Trainer(other, dataset).fit(tmp_path / "cut", resume=True, progress=False)
+    other_data = tmp_path / "other"  # another sample of the recipe: one episode fewer
+    shutil.copytree(fixture_data, other_data)
+    sorted((other_data / "buffer").glob("*.npz"))[-1].unlink()
+    with pytest.raises(FbilError, match=r"trained on data of digest \w+, this dataset's is"):
+        GoalTD3Trainer(cfg, load_dataset(other_data)).fit(tmp_path / "cut", resume=True)
     resumed = GoalTD3Trainer(cfg, dataset).fit(tmp_path / "cut", resume=True, progress=False)
+    assert resumed.metadata["data_digest"] == dataset.digest()
     a, b = _weights(whole), _weights(resumed)
     assert all(torch.equal(a[k], b[k]) for k in a)
     steps = [line.split(",")[0] for line in (tmp_path / "cut" / "goal_train_log.csv").open()]

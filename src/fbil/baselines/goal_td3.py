@@ -232,6 +232,7 @@ class GoalTD3Trainer:
             "step": self.step,
             "model_config": dataclasses.asdict(self.mcfg),
             "train_config": dataclasses.asdict(self.cfg),
+            "data_digest": self.dataset.digest(),
         }
 
     def load(self, state: dict[str, Any], where: Path) -> None:
@@ -241,6 +242,11 @@ class GoalTD3Trainer:
         if changed or state["model_config"]["domain"] != self.mcfg.domain:
             what = ", ".join(changed) or "domain"
             raise FbilError(f"{where}: saved with other settings ({what}); use the same preset")
+        if state.get("data_digest", self.dataset.digest()) != self.dataset.digest():
+            raise FbilError(
+                f"{where}: trained on data of digest {state['data_digest']}, this dataset's is "
+                f"{self.dataset.digest()} (another sample); resume on the run's own data"
+            )
         self.mcfg = GoalModelConfig(**state["model_config"])  # its epsilon, from its data
         self.sampler.epsilon = self.mcfg.epsilon
         self.agent.load(state["agent"])
@@ -259,6 +265,7 @@ class GoalTD3Trainer:
         if stop:
             raise stop.stopped(out, self.step)
         extra = {"steps": self.step, "dataset": str(self.dataset.root), "wall_seconds": wall}
+        extra["data_digest"] = self.dataset.digest()
         self.model().save(out, {**extra, "train_config": dataclasses.asdict(self.cfg)})
         return GoalModel.load(out)
 
