@@ -234,6 +234,7 @@ def test_goal_td3_runs_end_to_end_from_the_command_line(
     assert [j.goal_model for j in jobs] == [str(out), None]
     row = run_job(jobs[0])
     assert row["family"] == "bfm" and row["goal_model"] == str(out) and row["lookahead"] == 10
+    assert row["data_digest"] == load_dataset(fixture_data).digest()  # the goal model's data
 
 
 def test_the_radius_horizon_is_the_median_distance_h_steps_apart_in_one_episode(

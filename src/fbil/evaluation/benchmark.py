@@ -244,7 +244,11 @@ def run_job(job: Job, commit: str = "unknown") -> dict[str, Any]:
     row.update(family=imitator.family, **imitator.settings(context))
     # Which data and which kind of CPU: a grid's lines are comparable only on one dataset,
     # and runs repeat exactly only on one kind of CPU (docs/datasets.md).
-    row.update(data_digest=context.dataset.digest() if context.dataset is not None else None)
+    # A goal model's data is its method's (recorded since session 33; older models: None).
+    digest = context.dataset.digest() if context.dataset is not None else None
+    if digest is None and context.goal_model is not None:
+        digest = context.goal_model.metadata.get("data_digest")
+    row.update(data_digest=digest)
     row.update(machine=machine())
     if job.method in out["skipped"]:
         row.update(skipped=out["skipped"][job.method])
