@@ -87,15 +87,18 @@ def interleaved_rates(
     }
 
 
-def trainer(domain: str, preset_name: str, path: str) -> FBTrainer:
+def trainer(domain: str, preset_name: str, path: str, device: str = "cpu") -> FBTrainer:
     """path: default (the preset as `fbil pretrain` runs it), compiled, or eager_fp32."""
     model_cfg, train_cfg = preset(domain, preset_name)
     if path == "eager_fp32":
         train_cfg = dataclasses.replace(train_cfg, precision="fp32")
-    tr = FBTrainer(model_cfg, train_cfg, synthetic(domain), compile=path == "compiled")
+    data = synthetic(domain)
+    tr = FBTrainer(model_cfg, train_cfg, data, device=device, compile=path == "compiled")
     t0 = time.perf_counter()
     for _ in range(3):  # compilation, allocations, first-call overheads
         tr.update()
+    if device.startswith("cuda"):
+        torch.cuda.synchronize()
     tr.warmup_seconds = time.perf_counter() - t0  # type: ignore[attr-defined]
     return tr
 

@@ -15,19 +15,16 @@ preset's length).
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import json
 import sys
-import time
 from pathlib import Path
 from typing import Any
 
 import torch
 
 sys.path.insert(0, str(Path(__file__).parent))
-from fb_update import interleaved_rates, synthetic
+from fb_update import interleaved_rates, trainer
 
-from fbil.fb.config import preset
 from fbil.fb.train import FBTrainer
 
 RUNS = {
@@ -36,20 +33,6 @@ RUNS = {
     "paper_maze": ("point_mass_maze", "paper"),
     "paper_walker": ("walker", "paper"),
 }
-
-
-def trainer(domain: str, preset_name: str, device: str, fp32: bool, compile: bool) -> FBTrainer:
-    model_cfg, train_cfg = preset(domain, preset_name)
-    if fp32:
-        train_cfg = dataclasses.replace(train_cfg, precision="fp32")
-    tr = FBTrainer(model_cfg, train_cfg, synthetic(domain), device=device, compile=compile)
-    t0 = time.perf_counter()
-    for _ in range(3):  # allocations, cuBLAS handles, compilation
-        tr.update()
-    if device == "cuda":
-        torch.cuda.synchronize()
-    tr.warmup_seconds = time.perf_counter() - t0  # type: ignore[attr-defined]
-    return tr
 
 
 def synced(tr: FBTrainer) -> Any:
@@ -62,13 +45,13 @@ def synced(tr: FBTrainer) -> Any:
 
 def measure(domain: str, preset_name: str, seconds: float, compile: bool) -> dict[str, Any]:
     paths = {
-        "gpu": trainer(domain, preset_name, "cuda", False, False),
-        "gpu_fp32": trainer(domain, preset_name, "cuda", True, False),
+        "gpu": trainer(domain, preset_name, "default", "cuda"),
+        "gpu_fp32": trainer(domain, preset_name, "eager_fp32", "cuda"),
     }
     if compile:
-        paths["gpu_compiled"] = trainer(domain, preset_name, "cuda", False, True)
+        paths["gpu_compiled"] = trainer(domain, preset_name, "compiled", "cuda")
     steps: dict[str, Any] = {name: synced(tr) for name, tr in paths.items()}
-    steps["cpu_fp32"] = trainer(domain, preset_name, "cpu", True, False).update
+    steps["cpu_fp32"] = trainer(domain, preset_name, "eager_fp32").update
     rates = {k: round(v["steps_per_s"], 2) for k, v in interleaved_rates(steps, seconds).items()}
     tr = paths["gpu"]
     out: dict[str, Any] = {f"{k}_steps_per_s": v for k, v in rates.items()}

@@ -242,10 +242,11 @@ class GoalTD3Trainer:
         if changed or state["model_config"]["domain"] != self.mcfg.domain:
             what = ", ".join(changed) or "domain"
             raise FbilError(f"{where}: saved with other settings ({what}); use the same preset")
-        if state.get("data_digest", self.dataset.digest()) != self.dataset.digest():
+        digest = self.dataset.digest()
+        if state.get("data_digest", digest) != digest:  # checkpoints before session 33: none
             raise FbilError(
                 f"{where}: trained on data of digest {state['data_digest']}, this dataset's is "
-                f"{self.dataset.digest()} (another sample); resume on the run's own data"
+                f"{digest} (another sample); resume on the run's own data"
             )
         self.mcfg = GoalModelConfig(**state["model_config"])  # its epsilon, from its data
         self.sampler.epsilon = self.mcfg.epsilon
@@ -265,7 +266,7 @@ class GoalTD3Trainer:
         if stop:
             raise stop.stopped(out, self.step)
         extra = {"steps": self.step, "dataset": str(self.dataset.root), "wall_seconds": wall}
-        extra["data_digest"] = self.dataset.digest()
+        extra.update(data_digest=self.dataset.digest())
         self.model().save(out, {**extra, "train_config": dataclasses.asdict(self.cfg)})
         return GoalModel.load(out)
 
