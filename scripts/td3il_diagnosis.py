@@ -3,16 +3,20 @@ what bounds it: the share of expert rows in each minibatch (`--ratio`; the paper
 the reward (`--reward true`: no demo, the dataset relabeled with the task's true reward,
 i.e. the same offline TD3 as an oracle), the data (`--max-episodes`: the first N episodes
 of the dataset) and the number of gradient steps. Everything else is td3il's `cpu` budget;
-the demo is draw 0 of K = 1, as `fbil benchmark` draws it. `--eval-at N1,N2,..` also
-evaluates the policy after those updates of the same run (a budget curve for the price of
-its longest point), and `--hidden` sets the networks' width. `--learner sac --reward true`
-trains the offline SAC of sqil and iqlearn (`fbil.baselines.sac`, sqil's `cpu` settings
-but `--steps`/`--hidden`) on the true reward instead: the oracle those two baselines need
-before a grid. One thread; prints one JSON line per evaluation.
+the demo is draw `--draw` (default 0) of K = 1, as `fbil benchmark` draws it.
+`--eval-at N1,N2,..` also evaluates the policy after those updates of the same run (a
+budget curve for the price of its longest point), and `--hidden` sets the networks'
+width. `--learner sac --reward true` trains the offline SAC of sqil and iqlearn
+(`fbil.baselines.sac`, sqil's `cpu` settings but `--steps`/`--hidden`) on the true reward
+instead: the oracle those two baselines need before a grid. One thread; prints one JSON
+line per evaluation. For TD3 each line also holds the critics' min(Q1, Q2) averaged over
+the expert's (s, a) rows (`q_expert`), over 4 096 fixed dataset rows at their own actions
+(`q_data`) and at the policy's (`q_pi_data`): whether the expert rows stay above the data
+as training goes on.
 
 Usage: python scripts/td3il_diagnosis.py TASK [--ratio R] [--reward {01,true}] [--steps N]
        [--eval-at N1,N2] [--hidden H] [--max-episodes N] [--episodes 20] [--learner td3]
-       [--domain point_mass_maze] [--data DIR] [--demos DIR]
+       [--domain point_mass_maze] [--data DIR] [--demos DIR] [--draw 0]
 """
 
 from __future__ import annotations
@@ -27,13 +31,30 @@ import torch
 
 from fbil.agents.td3 import TD3
 from fbil.baselines import sqil, td3il
-from fbil.baselines.common import TrainedPolicy, Transitions, demo_transitions
+from fbil.baselines.common import TrainedPolicy, Transitions, dataset_rows, demo_transitions
 from fbil.baselines.offline_td3 import agent_state, train_offline_td3
 from fbil.baselines.sac import SAC, train_sac
 from fbil.data import load_dataset
 from fbil.envs.rollout import rollout
 from fbil.evaluation.evaluate import demo_draw
 from fbil.imitation import Demos
+
+
+@torch.no_grad()
+def q_values(agent: TD3, expert: Transitions | None, probe: Transitions) -> dict[str, float]:
+    """Mean min(Q1, Q2) at the expert's (s, a), the probe rows' (s, a) and (s, pi(s))."""
+
+    def q(obs: torch.Tensor, act: torch.Tensor) -> float:
+        return round(float(agent._q(agent.critics, obs, act).min(-1).values.mean()), 3)
+
+    assert probe.action is not None
+    out = {
+        "q_data": q(probe.obs, probe.action),
+        "q_pi_data": q(probe.obs, agent._pi(agent.actor, probe.obs)),
+    }
+    if expert is not None and expert.action is not None:
+        out["q_expert"] = q(expert.obs, expert.action)
+    return out
 
 
 def main() -> None:
@@ -50,6 +71,7 @@ def main() -> None:
     p.add_argument("--data", default="datasets/point_mass_maze/rnd_uniform_1000_x4")
     p.add_argument("--demos", default="artifacts/demos/point_mass_maze")
     p.add_argument("--learner", choices=["td3", "sac"], default="td3")
+    p.add_argument("--draw", type=int, default=0, help="the demo draw (K = 1), as the grid's")
     args = p.parse_args()
     if args.learner == "sac" and args.reward != "true":
         p.error(
@@ -60,7 +82,9 @@ def main() -> None:
     cfg = dataclasses.replace(td3il.BUDGETS["cpu"].td3, steps=args.steps, hidden=args.hidden)
     expert: Transitions | None = None
     if args.reward == "01":
-        expert = demo_transitions(demo_draw(Demos.load(f"{args.demos}/{args.task}.npz"), 1, 0))
+        expert = demo_transitions(
+            demo_draw(Demos.load(f"{args.demos}/{args.task}.npz"), 1, args.draw)
+        )
         label = td3il.labels
     else:
         true = torch.from_numpy(data.reward(args.task))
@@ -69,6 +93,8 @@ def main() -> None:
             assert batch.index is not None
             return true[batch.index]
 
+    rows = torch.randperm(data.num_transitions, generator=torch.Generator().manual_seed(0))
+    probe = dataset_rows(data, rows[:4096])
     started = time.time()
     eval_at = {int(n) for n in args.eval_at.split(",") if n}
 
@@ -93,8 +119,11 @@ def main() -> None:
             "return_mean": round(float(np.mean(ret)), 1),
             "return_std": round(float(np.std(ret)), 1),
             "train_seconds": round(seconds, 1),  # evaluations of earlier points included
+            "draw": args.draw,
             "info": info,
         }
+        if isinstance(agent, TD3):
+            out.update(q_values(agent, expert, probe))
         print(json.dumps(out), flush=True)
 
     def on_step(t: int, agent: TD3 | SAC) -> None:
