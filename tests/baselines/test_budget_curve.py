@@ -281,3 +281,35 @@ def test_merge_keeps_the_other_methods_with_their_tasks(
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "another draws" in err[0], err
     assert not (tmp_path / "curve" / "results_smoke.jsonl").read_text().count('"draw": 1')
+
+
+def _entry(*points: tuple[float, float, float]) -> dict[str, Any]:
+    return {
+        "points": [
+            {"scale": s, "budget": f"cpu@{s:g}", "score_pct": score, "ci95_pct": ci}
+            for s, score, ci in points
+        ]
+    }
+
+
+@pytest.mark.parametrize(
+    "points, reading, change",
+    [
+        (((1.0, 50.0, 2.0), (2.0, 58.0, 3.0)), "rises", 8.0),
+        (((1.0, 50.0, 12.0), (2.0, 58.0, 1.0)), "flat", 8.0),  # within the draws' interval
+        (((0.5, 10.0, 1.0), (1.0, 70.0, 4.0), (2.0, 50.0, 9.0)), "falls", -20.0),  # from cpu
+        (((1.0, 50.0, float("nan")), (2.0, 46.0, 1.0)), "flat", -4.0),  # the 5-point floor
+        (((0.25, 20.0, 1.0), (0.5, 40.0, 1.0)), "rises", 20.0),  # no cpu point: the smallest
+    ],
+)
+def test_the_curve_reading_compares_the_largest_budget_with_the_named_one(
+    points: tuple[tuple[float, float, float], ...], reading: str, change: float
+) -> None:
+    from fbil.evaluation.budget_curve import curve_reading, reading_table
+
+    r = curve_reading(_entry(*points))
+    assert r is not None and r["reading"] == reading and r["change"] == pytest.approx(change)
+    table = reading_table({"methods": {"m": _entry(*points)}})
+    assert any(line.startswith("| m |") and reading in line for line in table)
+    assert curve_reading(_entry((1.0, 50.0, 2.0))) is None  # one point: no reading
+    assert reading_table({"methods": {"m": _entry((1.0, 50.0, 2.0))}}) == []

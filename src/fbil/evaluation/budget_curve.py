@@ -219,6 +219,61 @@ def curve_table(curve: dict[str, Any]) -> list[str]:
     return lines
 
 
+READING_FLOOR = 5.0  # points: a change smaller than this never counts
+
+
+def curve_reading(entry: dict[str, Any]) -> dict[str, Any] | None:
+    """What a method's curve says about its budget: the change in score from its scale-1
+    point (the named budget; else its smallest scale) to its largest scale, against
+    max(5 points, the 95 % interval over draws at the scale-1 point). "rises": more budget
+    would raise the score; "falls": the named budget's score is not a plateau (longer
+    training lowered it); "flat": more budget would not change the conclusion. None
+    with fewer than two points."""
+    points = sorted(entry.get("points", []), key=lambda p: p["scale"])
+    if len(points) < 2:
+        return None
+    base = next((p for p in points if p["scale"] == 1.0), points[0])
+    last = points[-1]
+    if last is base:
+        return None
+    change = last["score_pct"] - base["score_pct"]
+    ci = base.get("ci95_pct")
+    threshold = max(READING_FLOOR, 0.0 if ci is None or math.isnan(ci) else ci)
+    word = "rises" if change > threshold else "falls" if change < -threshold else "flat"
+    return {
+        "base": base["budget"],
+        "last": last["budget"],
+        "change": change,
+        "threshold": threshold,
+        "reading": word,
+    }
+
+
+def reading_table(curve: dict[str, Any]) -> list[str]:
+    """One row per method with at least two points: `curve_reading`'s verdict."""
+    rows = []
+    for method, entry in curve["methods"].items():
+        r = curve_reading(entry)
+        if r is not None:
+            rows.append(
+                f"| {method} | {r['base']} → {r['last']} | {r['change']:+.1f} | "
+                f"{r['threshold']:.1f} | {r['reading']} |"
+            )
+    if not rows:
+        return []
+    return [
+        "| method | budgets | change in score (points) | threshold | reading |",
+        "|---|---|---|---|---|",
+        *rows,
+        "",
+        "Threshold: the larger of 5 points and the 95 % interval over draws at the named "
+        "budget. *flat*: more budget would not change the conclusion; *rises*: the named "
+        "budget is part of the gap to the paper; *falls*: longer training lowered the "
+        "score, so the named budget's figure is a measurement, not a plateau.",
+        "",
+    ]
+
+
 def curve_section(curve: dict[str, Any], out_dir: Path) -> list[str]:
     """The report's part on the baselines' budgets: the figure and the table."""
     fig = curve_figure(curve, out_dir / FIGURE_FILE)
@@ -237,6 +292,7 @@ def curve_section(curve: dict[str, Any], out_dir: Path) -> list[str]:
         "",
         *curve_table(curve),
         "",
+        *reading_table(curve),
         f"![score against budget]({fig.name})",
         "",
     ]
