@@ -271,9 +271,12 @@ def test_the_actor_schedule_of_meta_goal_agent_can_be_set(
         after = trainer.agent.actor.parameters()
         return any(not torch.equal(a, b) for a, b in zip(before, after, strict=True))
 
-    meta = dataclasses.replace(SMALL, policy_delay=1, actor_q="min_noisy", target_max=50.0)
+    meta = dataclasses.replace(
+        SMALL, policy_delay=1, actor_q="min_noisy", target_max=50.0, bc_alpha=2.5
+    )
     agent_cfg = GoalTD3Trainer(meta, data).agent.cfg
     assert agent_cfg.actor_q == "min_noisy" and agent_cfg.target_max == 50.0
+    assert agent_cfg.bc_alpha == 2.5 and GoalTD3Trainer(SMALL, data).agent.cfg.bc_alpha is None
     assert actor_moves_at_first_update(meta) and not actor_moves_at_first_update(SMALL)
     args = ["pretrain-goal", "point_mass_maze", "--data", str(fixture_data), "--preset", "smoke"]
     out = tmp_path / "goal"

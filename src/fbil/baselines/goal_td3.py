@@ -72,6 +72,9 @@ class GoalTD3Config:
     actor_q: str = "q1"
     target_min: float | None = None  # the TD target's clamp (TD3Config's); for the 0/1
     target_max: float | None = None  # goal reward, [0, 1/(1 - gamma)] bounds every fixed point
+    # TD3+BC's alpha on the actor (TD3Config's; the dataset's action is the BC target):
+    # keeps pi(s, g) near the data's actions where the critic extrapolates. Diagnostic.
+    bc_alpha: float | None = None
     her_ratio: float = 1.0  # goals from the episode's future; the rest: random states
     epsilon: float | None = None  # goal radius; None: epsilon_steps x the median step
     epsilon_steps: float = 1.0  # x the median |s_{t+h} - s_t| in the `distance` metric
@@ -102,7 +105,7 @@ class GoalTD3Config:
         """The TD3 settings; its one learning rate is the critic's (the trainer sets the
         actor's)."""
         same: tuple[str, ...] = ("hidden", "batch_size", "gamma", "tau", "policy_noise")
-        same += ("noise_clip", "policy_delay", "actor_q", "target_min", "target_max")
+        same += ("noise_clip", "policy_delay", "actor_q", "target_min", "target_max", "bc_alpha")
         return TD3Config(lr=self.critic_lr, **{k: getattr(self, k) for k in same})
 
 
