@@ -311,5 +311,7 @@ def test_the_curve_reading_compares_the_largest_budget_with_the_named_one(
     assert r is not None and r["reading"] == reading and r["change"] == pytest.approx(change)
     table = reading_table({"methods": {"m": _entry(*points)}})
     assert any(line.startswith("| m |") and reading in line for line in table)
+    noted = {**_entry(*points), "note": "seen again later"}
+    assert any("seen again later" in line for line in reading_table({"methods": {"m": noted}}))
     assert curve_reading(_entry((1.0, 50.0, 2.0))) is None  # one point: no reading
     assert reading_table({"methods": {"m": _entry((1.0, 50.0, 2.0))}}) == []

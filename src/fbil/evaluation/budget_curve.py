@@ -250,20 +250,21 @@ def curve_reading(entry: dict[str, Any]) -> dict[str, Any] | None:
 
 
 def reading_table(curve: dict[str, Any]) -> list[str]:
-    """One row per method with at least two points: `curve_reading`'s verdict."""
+    """One row per method with at least two points: `curve_reading`'s verdict, and the
+    entry's `note` (what a later measurement found about the curve) where it has one."""
     rows = []
     for method, entry in curve["methods"].items():
         r = curve_reading(entry)
         if r is not None:
             rows.append(
                 f"| {method} | {r['base']} → {r['last']} | {r['change']:+.1f} | "
-                f"{r['threshold']:.1f} | {r['reading']} |"
+                f"{r['threshold']:.1f} | {r['reading']} | {entry.get('note', '')} |"
             )
     if not rows:
         return []
     return [
-        "| method | budgets | change in score (points) | threshold | reading |",
-        "|---|---|---|---|---|",
+        "| method | budgets | change in score (points) | threshold | reading | note |",
+        "|---|---|---|---|---|---|",
         *rows,
         "",
         "Threshold: the larger of 5 points and the 95 % interval over draws at the named "
