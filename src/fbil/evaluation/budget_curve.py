@@ -268,9 +268,10 @@ def reading_table(curve: dict[str, Any]) -> list[str]:
         *rows,
         "",
         "Threshold: the larger of 5 points and the 95 % interval over draws at the named "
-        "budget. *flat*: more budget would not change the conclusion; *rises*: the named "
-        "budget is part of the gap to the paper; *falls*: longer training lowered the "
-        "score, so the named budget's figure is a measurement, not a plateau.",
+        "budget. *flat*: more budget would not change the conclusion; *rises*: more "
+        "budget raises the score, so the named budget holds the baseline back; *falls*: "
+        "longer training lowered the score, so the named budget's figure is a "
+        "measurement, not a plateau.",
         "",
     ]
 
