@@ -67,6 +67,8 @@ def test_seed_summary_means_spreads_and_the_median_rule(
     assert choose([seed_entry(m, r) for m, r in three_seeds], "median_zero_shot") == str(
         three_seeds[1][0]
     )
+    # `first` keeps the model given first (a committed seed), whatever the others score.
+    assert choose(entries[::-1], "first") == str(three_seeds[2][0])
     with pytest.raises(FbilError, match="unknown rule 'best'"):
         choose(entries, "best")
     with pytest.raises(FbilError, match="at least 2 models"):

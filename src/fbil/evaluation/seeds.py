@@ -25,8 +25,10 @@ SEEDS_FILE = "seeds.json"
 MAIN_SETTING = "standard, K=1"
 # The rules a default model may be chosen by. `median_zero_shot`: the seed whose zero-shot
 # mean (over the chosen tasks) is the median of the seeds' (the lower one for an even count),
-# so neither the luckiest nor the unluckiest run stands for the recipe.
-RULES = ("median_zero_shot",)
+# so neither the luckiest nor the unluckiest run stands for the recipe. `first`: the first
+# model given, for a model committed before its recipe's other seeds were trained (walker),
+# which later seeds only measure and never replace.
+RULES = ("median_zero_shot", "first")
 
 
 def _zero_shot(model: Path, tasks: Sequence[str] | None) -> tuple[dict[str, float], float]:
@@ -103,6 +105,8 @@ def choose(entries: Sequence[dict[str, Any]], rule: str) -> str:
     """The default model among the seeds, by `rule` (one of RULES)."""
     if rule not in RULES:
         raise FbilError(f"unknown rule {rule!r}; valid: {', '.join(RULES)}")
+    if rule == "first":
+        return str(entries[0]["model"])
     ranked = sorted(entries, key=lambda e: (e["zero_shot_mean"], e["model"]))
     return str(ranked[(len(ranked) - 1) // 2]["model"])
 
