@@ -88,7 +88,9 @@ def test_empty_folder_is_refused(tmp_path: Path) -> None:
         load_dataset(tmp_path / "missing")
 
 
-@pytest.mark.parametrize("defect", ["truncated", "garbage", "mismatched", "missing_key", "nan"])
+@pytest.mark.parametrize(
+    "defect", ["truncated", "garbage", "npy", "mismatched", "missing_key", "nan"]
+)
 def test_damaged_files_are_named(tmp_path: Path, defect: str) -> None:
     rng = np.random.default_rng(3)
     root = _write_exorl(tmp_path, [_exorl_episode(rng, 6), _exorl_episode(rng, 6)])
@@ -97,6 +99,9 @@ def test_damaged_files_are_named(tmp_path: Path, defect: str) -> None:
         bad.write_bytes(bad.read_bytes()[:100])
     elif defect == "garbage":
         bad.write_bytes(b"not a zip file at all")
+    elif defect == "npy":  # a plain .npy under the episode's name: np.load gives an array
+        with bad.open("wb") as f:
+            np.save(f, np.zeros(3))
     else:
         ep = _exorl_episode(rng, 6)
         if defect == "mismatched":

@@ -105,6 +105,29 @@ def test_bad_demos_are_refused(make, message: str) -> None:
         make().validate()
 
 
+def _write_npz(path: Path, **arrays: np.ndarray) -> Path:
+    np.savez(path, **arrays)
+    return path
+
+
+@pytest.mark.parametrize(
+    "write, message",
+    [
+        (lambda p: p.write_bytes(b"not a zip") and p, "not an .npz archive"),
+        (lambda p: np.save(p.with_suffix(".npy"), np.zeros(3)) or p.with_suffix(".npy"), "npz"),
+        (lambda p: _write_npz(p, observation=np.zeros((11, 4))), "needs arrays"),
+        (lambda p: _write_npz(p, observation=np.zeros((11, 4)), offsets=[0, 50]), "rise from 0"),
+        (lambda p: _write_npz(p, observation=np.zeros((11, 4)), offsets=[0, 6, 3, 11]), "rise"),
+        (lambda p: _write_npz(p, observation=np.zeros((11, 4)), offsets=[0.0, 11.0]), "integer"),
+    ],
+)
+def test_damaged_demo_files_are_refused_in_one_line(tmp_path: Path, write, message: str) -> None:
+    path = write(tmp_path / "demo.npz")
+    with pytest.raises(FbilError, match=message) as err:
+        Demos.load(path)
+    assert "\n" not in str(err.value)
+
+
 def test_model_and_method_mismatches_are_refused(smoke_model_dir: Path) -> None:
     model = FBModel.load(smoke_model_dir)
     action_free = from_arrays([np.zeros((6, 4))])

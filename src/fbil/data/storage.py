@@ -80,6 +80,8 @@ def load_episode(path: str | Path, keys: tuple[str, ...] = KEYS) -> dict[str, np
     """Read arrays `keys` of one episode file and check them (every array of the layout
     must be present); any defect is a one-line error naming the file."""
     path = Path(path)
+    if path.is_file() and not zipfile.is_zipfile(path):
+        raise FbilError(f"{path}: not an .npz archive; delete it and re-collect")
     try:
         with np.load(path, allow_pickle=False) as npz:
             missing = [k for k in KEYS if k not in npz.files]

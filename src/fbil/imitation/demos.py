@@ -113,24 +113,12 @@ class Demos:
     @classmethod
     def load(cls, path: str | Path) -> Demos:
         path = Path(path)
-        if not path.is_file():
-            raise FbilError(
-                f"no demonstrations at {path}; pass a demo .npz (e.g. one of "
-                "artifacts/demos/<domain>/, or one written by `fbil demos`)"
-            )
-        try:
-            with np.load(path, allow_pickle=False) as npz:
-                data = {k: npz[k] for k in npz.files}
-        except (OSError, ValueError, EOFError, zipfile.BadZipFile) as exc:
-            raise FbilError(f"{path}: not a readable demo file ({exc})") from None
-        if "observation" not in data or "offsets" not in data:
-            raise FbilError(f"{path}: not a demo file (needs arrays observation and offsets)")
-        offsets = data["offsets"].astype(int)
-        n = len(offsets) - 1
+        data = _read_npz(path)
+        offsets = _checked_offsets(path, data)
         steps = np.diff(offsets) - 1
         act_offsets = np.concatenate([[0], np.cumsum(steps)])
         trajs = []
-        for i in range(n):
+        for i in range(len(offsets) - 1):
             s, e = offsets[i], offsets[i + 1]
             a, b = act_offsets[i], act_offsets[i + 1]
             trajs.append(
@@ -146,6 +134,42 @@ class Demos:
         except json.JSONDecodeError:
             meta = {}
         return cls(trajs, meta).validate(source=str(path))
+
+
+def _read_npz(path: Path) -> dict[str, np.ndarray]:
+    """The arrays of a demo .npz, or one FbilError line saying why there are none."""
+    if not path.is_file():
+        raise FbilError(
+            f"no demonstrations at {path}; pass a demo .npz (e.g. one of "
+            "artifacts/demos/<domain>/, or one written by `fbil demos`)"
+        )
+    if not zipfile.is_zipfile(path):
+        raise FbilError(
+            f"{path}: not an .npz archive (a demo file is written by `fbil demos` or "
+            "`Demos.save`); check the path"
+        )
+    try:
+        with np.load(path, allow_pickle=False) as npz:
+            return {k: npz[k] for k in npz.files}
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile) as exc:
+        raise FbilError(f"{path}: not a readable demo file ({exc})") from None
+
+
+def _checked_offsets(path: Path, data: dict[str, np.ndarray]) -> np.ndarray:
+    """`offsets` as integers, checked against the observation rows they cut."""
+    if "observation" not in data or "offsets" not in data:
+        raise FbilError(f"{path}: not a demo file (needs arrays observation and offsets)")
+    offsets, obs = data["offsets"], data["observation"]
+    rows = len(obs) if obs.ndim else 0
+    if offsets.ndim != 1 or not np.issubdtype(offsets.dtype, np.integer):
+        raise FbilError(f"{path}: offsets must be a 1-D integer array, got {offsets.dtype}")
+    if len(offsets) and (offsets[0] != 0 or offsets[-1] != rows or np.any(np.diff(offsets) < 1)):
+        shown = str(offsets.tolist()[:4])[:-1] + (", ...]" if len(offsets) > 4 else "]")
+        raise FbilError(
+            f"{path}: offsets {shown} must rise from 0 to the "
+            f"{rows} observation rows; the file is damaged or was not written by fbil"
+        )
+    return offsets.astype(int)
 
 
 def from_arrays(
