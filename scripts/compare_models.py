@@ -10,7 +10,11 @@ jobs they share.
 
 Usage: python scripts/compare_models.py --run A=runs/a.jsonl,runs/a_zs.json --run B=... \
            [--draws 0,1] [--tasks t1,t2] [--methods m1,m2] [--per-task erfb,goalfb]
-           [--out FILE.json]
+           [--out FILE.json] [--plot FILE.png]
+
+With --plot, every NAME is a number (e.g. the model's FB updates: `--run 100000=...`), and
+the figure shows each method's score, their mean and the zero-shot mean against it: a
+training-length curve of imitation, as `scripts/zero_shot_curve.py` draws zero-shot's.
 """
 
 from __future__ import annotations
@@ -80,6 +84,41 @@ def print_table(title: str, columns: dict[str, dict[str, float]]) -> None:
         )
 
 
+def plot_curve(out: dict[str, dict[str, Any]], path: Path) -> None:
+    """Score (%) per method and their mean, and the zero-shot mean, against numeric names."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    try:
+        xs = {name: float(name) for name in out}
+    except ValueError:
+        raise FbilError("--plot needs numeric --run names (e.g. FB updates)") from None
+    names = sorted(out, key=xs.__getitem__)
+    fig, ax = plt.subplots(figsize=(6.4, 3.8))
+    methods = sorted({m for e in out.values() for m in e["score_pct"]} - {"mean"})
+    for m in methods:
+        ys = [out[n]["score_pct"].get(m, float("nan")) for n in names]
+        ax.plot([xs[n] for n in names], ys, ".-", lw=0.8, alpha=0.6, label=m)
+    ys = [out[n]["score_pct"]["mean"] for n in names]
+    ax.plot([xs[n] for n in names], ys, "ko-", lw=2.2, label="mean")
+    ax.set_xlabel("FB updates")
+    ax.set_ylabel("imitation score (%), K = 1")
+    ax.grid(alpha=0.3)
+    zs = [(xs[n], sum(z.values()) / len(z)) for n in names if (z := out[n].get("zero_shot"))]
+    if zs:
+        twin = ax.twinx()
+        twin.plot(*zip(*zs), "s--", color="grey", label="zero-shot mean (right)")
+        twin.set_ylabel("zero-shot mean return (z_r)")
+        twin.set_ylim(0, 1000)  # a task's return is at most 1 000
+        twin.legend(fontsize=7, loc="lower right")
+    ax.legend(fontsize=7, ncol=2, loc="upper left")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--run", action="append", required=True, metavar="NAME=RESULTS[,ZERO_SHOT]")
@@ -90,6 +129,7 @@ def main(argv: list[str] | None = None) -> int:
         "--per-task", default="erfb,goalfb", help="methods whose per-task returns to show"
     )
     p.add_argument("--out", default=None, help="write the comparison here (.json)")
+    p.add_argument("--plot", default=None, help="draw the scores against numeric NAMEs (.png)")
     args = p.parse_args(argv)
     try:
         draws = {int(d) for d in args.draws.split(",") if d.strip()} or None
@@ -107,6 +147,8 @@ def main(argv: list[str] | None = None) -> int:
                 zs = json.loads(Path(zero_shot).read_text())
                 entry["zero_shot"] = {t: v["return_mean"] for t, v in zs["tasks"].items()}
             out[name] = entry
+        if args.plot:
+            plot_curve(out, Path(args.plot))
     except (FbilError, ValueError, KeyError, OSError) as exc:
         print(f"compare_models: error: {exc}", file=sys.stderr)
         return 2

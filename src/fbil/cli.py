@@ -378,15 +378,13 @@ def _fit_context(args: argparse.Namespace, names: Sequence[str], demos: Any) -> 
 
 
 def _cmd_imitate(args: argparse.Namespace) -> int:
-    from fbil.evaluation.evaluate import fit_all
+    from fbil.evaluation.evaluate import demo_draw, fit_all
     from fbil.imitation import Demos
     from fbil.imitators import family_of, principle_of, resolve
 
     demos = Demos.load(args.demos)
-    if args.k is not None:
-        if args.k < 1:
-            raise FbilError(f"--k must be >= 1, got {args.k}")
-        demos = demos.select(range(min(args.k, len(demos))))
+    if args.k is not None:  # the first K, with `fbil evaluate`'s check of K
+        demos = demo_draw(demos, args.k, 0)
     selection = resolve(args.methods)
     context = _fit_context(args, selection.names, demos)
     fitted, skipped = fit_all(selection.names, demos, context, selection.group)

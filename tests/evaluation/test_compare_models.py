@@ -70,3 +70,15 @@ def test_tasks_and_methods_filters(tmp_path: Path) -> None:
     assert got["jobs"] == 1 and got["score_pct"] == {"erfb": 50.0, "mean": 50.0}
     proc = _run("--run", f"A={a}", "--tasks", "fast_slow")
     assert proc.returncode == 2 and proc.stderr.strip().count("\n") == 0
+
+
+def test_plot_needs_numeric_names_and_draws_the_curve(tmp_path: Path) -> None:
+    a = _lines(tmp_path / "a.jsonl", [("erfb", "loop", 0, 0.5, 500.0)])
+    b = _lines(tmp_path / "b.jsonl", [("erfb", "loop", 0, 0.8, 800.0)])
+    png = tmp_path / "curve.png"
+    proc = _run("--run", f"50000={a}", "--run", f"100000={b}", "--plot", str(png))
+    assert proc.returncode == 0, proc.stderr
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    proc = _run("--run", f"A={a}", "--plot", str(tmp_path / "x.png"))
+    assert proc.returncode == 2 and "numeric" in proc.stderr
+    assert not (tmp_path / "x.png").exists()
