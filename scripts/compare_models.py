@@ -109,7 +109,13 @@ def plot_curve(out: dict[str, dict[str, Any]], path: Path) -> None:
     zs = [(xs[n], sum(z.values()) / len(z)) for n in names if (z := out[n].get("zero_shot"))]
     if zs:
         twin = ax.twinx()
-        twin.plot(*zip(*zs), "s--", color="grey", label="zero-shot mean (right)")
+        twin.plot(
+            [x for x, _ in zs],
+            [y for _, y in zs],
+            "s--",
+            color="grey",
+            label="zero-shot mean (right)",
+        )
         twin.set_ylabel("zero-shot mean return (z_r)")
         twin.set_ylim(0, 1000)  # a task's return is at most 1 000
         twin.legend(fontsize=7, loc="lower right")

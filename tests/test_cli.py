@@ -181,9 +181,15 @@ def test_one_spelling_per_option_and_every_default_in_help() -> None:
 @pytest.mark.parametrize(
     "args, message",
     [
-        (["imitate", "no-model", "{demos}", "--methods", "bc", "--k", "0"], "--k must be in [1, 1]"),
+        (
+            ["imitate", "no-model", "{demos}", "--methods", "bc", "--k", "0"],
+            "--k must be in [1, 1]",
+        ),
         # more demos asked for than the file has: an error, as in `fbil evaluate`
-        (["imitate", "no-model", "{demos}", "--methods", "bc", "--k", "2"], "--k must be in [1, 1]"),
+        (
+            ["imitate", "no-model", "{demos}", "--methods", "bc", "--k", "2"],
+            "--k must be in [1, 1]",
+        ),
         (
             ["pretrain-goal", "point_mass_maze", "--data", "x", "--out", "{out}", "--set"],
             "'abc' is not a valid number",
