@@ -11,16 +11,21 @@ jobs they share.
 Usage: python scripts/compare_models.py --run A=runs/a.jsonl,runs/a_zs.json --run B=... \
            [--draws 0,1] [--tasks t1,t2] [--methods m1,m2] [--per-task erfb,goalfb]
            [--out FILE.json] [--plot FILE.png]
+           [--curve training_curve.json --domain D [--committed NAME] [--note TEXT]]
 
 With --plot, every NAME is a number (e.g. the model's FB updates: `--run 100000=...`), and
 the figure shows each method's score, their mean and the zero-shot mean against it: a
 training-length curve of imitation, as `scripts/zero_shot_curve.py` draws zero-shot's.
+With --curve FILE --domain D (numeric NAMEs too), the same comparison is written as the
+`training_curve.json` that `fbil report` shows next to D's results; --committed NAME marks
+the snapshot that is the committed model, --note adds a sentence.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import shlex
 import statistics
 import sys
 from pathlib import Path
@@ -28,6 +33,7 @@ from typing import Any
 
 from fbil.checkpoint import atomic_write_text
 from fbil.errors import FbilError
+from fbil.evaluation.training_curve import curve_points, plot_training_curve
 
 
 def summarise(
@@ -84,45 +90,22 @@ def print_table(title: str, columns: dict[str, dict[str, float]]) -> None:
         )
 
 
-def plot_curve(out: dict[str, dict[str, Any]], path: Path) -> None:
-    """Score (%) per method and their mean, and the zero-shot mean, against numeric names."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    try:
-        xs = {name: float(name) for name in out}
-    except ValueError:
-        raise FbilError("--plot needs numeric --run names (e.g. FB updates)") from None
-    names = sorted(out, key=xs.__getitem__)
-    fig, ax = plt.subplots(figsize=(6.4, 3.8))
-    methods = sorted({m for e in out.values() for m in e["score_pct"]} - {"mean"})
-    for m in methods:
-        ys = [out[n]["score_pct"].get(m, float("nan")) for n in names]
-        ax.plot([xs[n] for n in names], ys, ".-", lw=0.8, alpha=0.6, label=m)
-    ys = [out[n]["score_pct"]["mean"] for n in names]
-    ax.plot([xs[n] for n in names], ys, "ko-", lw=2.2, label="mean")
-    ax.set_xlabel("FB updates")
-    ax.set_ylabel("imitation score (%), K = 1")
-    ax.grid(alpha=0.3)
-    zs = [(xs[n], sum(z.values()) / len(z)) for n in names if (z := out[n].get("zero_shot"))]
-    if zs:
-        twin = ax.twinx()
-        twin.plot(
-            [x for x, _ in zs],
-            [y for _, y in zs],
-            "s--",
-            color="grey",
-            label="zero-shot mean (right)",
-        )
-        twin.set_ylabel("zero-shot mean return (z_r)")
-        twin.set_ylim(0, 1000)  # a task's return is at most 1 000
-        twin.legend(fontsize=7, loc="lower right")
-    ax.legend(fontsize=7, ncol=2, loc="upper left")
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+def _write_curve(args: argparse.Namespace, out: dict[str, Any], argv: list[str] | None) -> None:
+    """The report's training_curve.json (fbil.evaluation.training_curve) from the runs."""
+    if not args.domain:
+        raise FbilError("--curve needs --domain (the runs' domain, e.g. walker)")
+    curve_points(out)  # numeric names, or a one-line error
+    if args.committed is not None and args.committed not in out:
+        raise FbilError(f"--committed {args.committed!r} is not one of the --run names")
+    words = sys.argv[1:] if argv is None else argv
+    curve = {
+        "domain": args.domain,
+        "committed": args.committed,
+        "command": "python scripts/compare_models.py " + shlex.join(words),
+        "note": args.note,
+        "runs": out,
+    }
+    atomic_write_text(Path(args.curve), json.dumps(curve, indent=1) + "\n")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -136,6 +119,10 @@ def main(argv: list[str] | None = None) -> int:
     )
     p.add_argument("--out", default=None, help="write the comparison here (.json)")
     p.add_argument("--plot", default=None, help="draw the scores against numeric NAMEs (.png)")
+    p.add_argument("--curve", default=None, help="write a report's training_curve.json here")
+    p.add_argument("--domain", default=None, help="the runs' domain (needed by --curve)")
+    p.add_argument("--committed", default=None, help="--curve: NAME of the committed model")
+    p.add_argument("--note", default="", help="--curve: a sentence for the report")
     args = p.parse_args(argv)
     try:
         draws = {int(d) for d in args.draws.split(",") if d.strip()} or None
@@ -154,7 +141,9 @@ def main(argv: list[str] | None = None) -> int:
                 entry["zero_shot"] = {t: v["return_mean"] for t, v in zs["tasks"].items()}
             out[name] = entry
         if args.plot:
-            plot_curve(out, Path(args.plot))
+            plot_training_curve(out, Path(args.plot))
+        if args.curve:
+            _write_curve(args, out, argv)
     except (FbilError, ValueError, KeyError, OSError) as exc:
         print(f"compare_models: error: {exc}", file=sys.stderr)
         return 2

@@ -8,6 +8,10 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
+from fbil.errors import FbilError
+
 SCRIPT = Path(__file__).resolve().parents[2] / "scripts" / "compare_models.py"
 
 
@@ -82,3 +86,63 @@ def test_plot_needs_numeric_names_and_draws_the_curve(tmp_path: Path) -> None:
     proc = _run("--run", f"A={a}", "--plot", str(tmp_path / "x.png"))
     assert proc.returncode == 2 and "numeric" in proc.stderr
     assert not (tmp_path / "x.png").exists()
+
+
+def test_curve_sidecar_is_what_the_report_shows(tmp_path: Path) -> None:
+    from fbil.evaluation.training_curve import find_training_curve, training_curve_section
+
+    a = _lines(tmp_path / "a.jsonl", [("erfb", "walk", 0, 0.5, 500.0)])
+    b = _lines(tmp_path / "b.jsonl", [("erfb", "walk", 0, 0.25, 250.0)])
+    zs = tmp_path / "zs.json"
+    zs.write_text(json.dumps({"tasks": {"walk": {"return_mean": 812.5, "return_std": 1.0}}}))
+    curve = tmp_path / "training_curve.json"
+    runs = ["--run", f"100000={a},{zs}", "--run", f"200000={b}"]
+    proc = _run(*runs, "--curve", str(curve), "--domain", "walker", "--committed", "100000")
+    assert proc.returncode == 0, proc.stderr
+    found = find_training_curve([tmp_path / "results.jsonl"], "walker")
+    assert found is not None and found["committed"] == "100000"
+    assert find_training_curve([tmp_path / "results.jsonl"], "cheetah") is None
+    lines = training_curve_section(found, tmp_path / "report")
+    table = "\n".join(lines)
+    assert "| 100,000 (committed) | 200,000 |" in table
+    assert (
+        "| **mean** | 50.0 | 25.0 |" in table and "| zero-shot mean return | 812.5 | – |" in table
+    )
+    assert (tmp_path / "report" / "training_curve.png").stat().st_size > 0
+    assert "--committed 100000" in found["command"]
+
+
+def test_curve_needs_a_domain_numeric_names_and_a_known_committed_name(tmp_path: Path) -> None:
+    a = _lines(tmp_path / "a.jsonl", [("erfb", "walk", 0, 0.5, 500.0)])
+    curve = str(tmp_path / "c.json")
+    for extra in (
+        ["--run", f"100000={a}", "--curve", curve],
+        ["--run", f"first={a}", "--curve", curve, "--domain", "walker"],
+        ["--run", f"100000={a}", "--curve", curve, "--domain", "walker", "--committed", "5"],
+    ):
+        proc = _run(*extra)
+        assert proc.returncode == 2 and proc.stderr.strip().count("\n") == 0, proc.stderr
+        assert not Path(curve).exists()
+
+
+def test_the_report_shows_a_training_curve_next_to_its_results(tmp_path: Path) -> None:
+    from fbil.evaluation.report import write_report
+    from tests.evaluation.test_report import _rows, _write
+
+    out = tmp_path / "results"
+    out.mkdir()
+    rows = _rows("point_mass_maze", "erfb", {"loop": (0.5, 0.5)}, (0.01, 0.01))
+    results = _write(out / "results.jsonl", rows)
+    a = _lines(tmp_path / "a.jsonl", [("erfb", "loop", 0, 0.5, 500.0)])
+    b = _lines(tmp_path / "b.jsonl", [("erfb", "loop", 0, 0.75, 750.0)])
+    curve = out / "training_curve.json"
+    for domain, shown in (("walker", False), ("point_mass_maze", True)):
+        runs = ["--run", f"1000={a}", "--run", f"2000={b}"]
+        proc = _run(*runs, "--curve", str(curve), "--domain", domain, "--note", "One seed.")
+        assert proc.returncode == 0, proc.stderr
+        text = write_report(results, tmp_path / f"report_{domain}").read_text()
+        assert ("## Imitation against training length" in text) is shown
+    assert "| **mean** | 50.0 | 75.0 |" in text and "One seed." in text
+    curve.write_text("{not json")
+    with pytest.raises(FbilError, match=r"training_curve\.json is not valid JSON"):
+        write_report(results, tmp_path / "report_bad")

@@ -6,11 +6,12 @@ baselines) next to the paper's Tables 5-7, the score by family and IL principle 
 paper's Fig. 3), time to policy of every method on a log scale next to Table 8 (Fig. 2),
 the baselines' score against training budget when a budget curve is there
 (`fbil.evaluation.budget_curve`), the model seeds' spread when a seeds.json is there
-(`fbil.evaluation.seeds`), the demo-shift and K comparisons when the results hold
-them, and the demonstration against each method's rollout in the domain's picture (the
-maze: paths, as the paper's Fig. 6; locomotion: frame strips). Results files of several
-domains (one domain per file): one such report per domain and a report over domains (the
-paper's Fig. 1).
+(`fbil.evaluation.seeds`), one run's imitation against its training length when a
+training_curve.json is there (`fbil.evaluation.training_curve`), the demo-shift and K
+comparisons when the results hold them, and the demonstration against each method's
+rollout in the domain's picture (the maze: paths, as the paper's Fig. 6; locomotion: frame
+strips). Results files of several domains (one domain per file): one such report per
+domain and a report over domains (the paper's Fig. 1).
 """
 
 from __future__ import annotations
@@ -49,6 +50,7 @@ from fbil.evaluation.paper import (
 )
 from fbil.evaluation.seeds import find_seeds, seeds_section
 from fbil.evaluation.timing import find_timing, timing_section
+from fbil.evaluation.training_curve import find_training_curve, training_curve_section
 from fbil.imitators import family_of, principle_of
 
 
@@ -379,6 +381,9 @@ def _domain_report(
         if curve is not None and curve.get("domain") == domain:
             lines += curve_section(curve, out)  # the baselines' score against budget
         lines += _limits_section(rows, summary["settings"][main], domain, main)
+        training = find_training_curve(files, domain)  # scripts/compare_models.py --curve
+        if training is not None:
+            lines += training_curve_section(training, out)
         implied = find_implied(files, domain)  # scripts/implied_reward_probe.py
         if implied is not None:
             lines += implied_section(implied)
