@@ -1,0 +1,90 @@
+"""How far the z-optimising FB-IL methods move from their warm start (imitation only, no
+rollout).
+
+For each MODEL (e.g. the snapshots of one run), each task's demo file in --demos and each
+demo draw (K demos per draw, the grid's `demo_draw`), the ERFB z (every gradient method's
+warm start) and each gradient method's z with the default optimiser, then
+cos(z_method, z_erfb). A method whose z leaves its warm start farther as F trains on is
+following F's values away from the z's F was trained on.
+
+Usage: python scripts/z_drift.py MODEL [MODEL ...] --demos DIR [--tasks all]
+           [--methods bcfb,fmfb,dmfb,bbellfb,fblossfb] [--draws 5] [--k 1] [--json OUT]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import sys
+from pathlib import Path
+from typing import Any
+
+import torch
+
+from fbil.checkpoint import atomic_write_text
+from fbil.errors import FbilError
+from fbil.evaluation.evaluate import demo_draw
+from fbil.fb.model import FBModel
+from fbil.imitation import METHODS, Demos, imitate
+
+GRADIENT = ("bcfb", "fmfb", "dmfb", "bbellfb", "fblossfb")
+
+
+def cosines(
+    model: FBModel, demos: Demos, methods: list[str], draws: int, k: int
+) -> dict[str, list[float]]:
+    """cos(z_method, z_erfb) per method, one value per draw."""
+    out: dict[str, list[float]] = {m: [] for m in methods}
+    for draw in range(draws):
+        group = demo_draw(demos, k, draw)
+        z0 = imitate(model, group, "erfb").z.flatten()
+        for m in methods:
+            z = imitate(model, group, m).z.flatten()
+            out[m].append(float(torch.nn.functional.cosine_similarity(z, z0, dim=0)))
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("models", nargs="+")
+    p.add_argument("--demos", required=True, help="folder of <task>.npz demo files")
+    p.add_argument("--tasks", default="all", help="comma list of tasks (all: every file)")
+    p.add_argument("--methods", default=",".join(GRADIENT))
+    p.add_argument("--draws", type=int, default=5)
+    p.add_argument("--k", type=int, default=1)
+    p.add_argument("--json", default=None)
+    args = p.parse_args(argv)
+    torch.set_num_threads(1)
+    try:
+        methods = [m.strip() for m in args.methods.split(",") if m.strip()]
+        bad = [m for m in methods if m not in METHODS or not METHODS[m].gradient]
+        if bad:
+            raise FbilError(f"not gradient FB-IL methods: {', '.join(bad)}; use {GRADIENT}")
+        files = sorted(Path(args.demos).glob("*.npz"))
+        if args.tasks != "all":
+            wanted = set(args.tasks.split(","))
+            files = [f for f in files if f.stem in wanted]
+        if not files:
+            raise FbilError(f"no demo files for --tasks {args.tasks} in {args.demos}")
+        demos = {f.stem: Demos.load(f) for f in files}
+        rows: list[dict[str, Any]] = []
+        for name in args.models:
+            model = FBModel.load(name)
+            per_task = {t: cosines(model, d, methods, args.draws, args.k) for t, d in demos.items()}
+            mean = {
+                m: statistics.mean(c for t in per_task for c in per_task[t][m]) for m in methods
+            }
+            rows.append({"model": name, "mean": mean, "tasks": per_task})
+            print(f"{name}: " + ", ".join(f"{m} {v:.3f}" for m, v in mean.items()), flush=True)
+    except FbilError as exc:
+        print(f"z_drift: error: {exc}", file=sys.stderr)
+        return 2
+    if args.json:
+        out = {"demos": args.demos, "k": args.k, "draws": args.draws, "rows": rows}
+        atomic_write_text(Path(args.json), json.dumps(out, indent=1) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,43 @@
+"""`scripts/z_drift.py`: one cosine per draw and method, within [-1, 1], and the same z's
+as `imitate` gives; mistakes are one-line errors."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+import torch
+
+from fbil.evaluation.evaluate import demo_draw
+from fbil.fb.model import FBModel
+from fbil.imitation import Demos, imitate
+from tests.script_module import load_script
+
+DEMOS = Path(__file__).resolve().parents[2] / "artifacts" / "demos" / "point_mass_maze"
+
+
+def test_cosines_per_draw_against_the_erfb_warm_start(smoke_model_dir: Path) -> None:
+    model, demos = FBModel.load(smoke_model_dir), Demos.load(DEMOS / "loop.npz")
+    got = load_script("z_drift").cosines(model, demos, ["dmfb", "fblossfb"], draws=2, k=1)
+    assert set(got) == {"dmfb", "fblossfb"} and all(len(v) == 2 for v in got.values())
+    group = demo_draw(demos, 1, 1)
+    z0, z = imitate(model, group, "erfb").z.flatten(), imitate(model, group, "dmfb").z.flatten()
+    want = float(torch.nn.functional.cosine_similarity(z, z0, dim=0))
+    assert got["dmfb"][1] == pytest.approx(want, abs=1e-6)
+    assert all(-1.0 <= c <= 1.0 + 1e-6 for v in got.values() for c in v)
+
+
+def test_cli_json_and_one_line_errors(
+    smoke_model_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    script = load_script("z_drift")
+    out = tmp_path / "d.json"
+    base = [str(smoke_model_dir), "--demos", str(DEMOS), "--tasks", "loop", "--draws", "1"]
+    assert script.main([*base, "--methods", "bbellfb", "--json", str(out)]) == 0
+    row = json.loads(out.read_text())["rows"][0]
+    assert list(row["tasks"]) == ["loop"] and len(row["tasks"]["loop"]["bbellfb"]) == 1
+    for extra in (["--methods", "erfb"], ["--tasks", "nowhere"]):
+        assert script.main([*base, *extra]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and err[0].startswith("z_drift: error:"), err
