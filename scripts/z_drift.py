@@ -7,8 +7,14 @@ warm start) and each gradient method's z with the default optimiser, then
 cos(z_method, z_erfb). A method whose z leaves its warm start farther as F trains on is
 following F's values away from the z's F was trained on.
 
+With --actor-check, also the implied-reward probe's actor gap at every 10th demo state for
+every z, ERFB's included (`fbil.evaluation.implied.actor_check`: the best of 64 random, 64
+local and the demo's action under F, minus the actor's, in units of Q's spread): whether
+the actor still takes F's best actions for the z's the optimisers reach.
+
 Usage: python scripts/z_drift.py MODEL [MODEL ...] --demos DIR [--tasks all]
-           [--methods bcfb,fmfb,dmfb,bbellfb,fblossfb] [--draws 5] [--k 1] [--json OUT]
+           [--methods bcfb,fmfb,dmfb,bbellfb,fblossfb] [--draws 5] [--k 1] [--actor-check]
+           [--json OUT]
 """
 
 from __future__ import annotations
@@ -25,6 +31,7 @@ import torch
 from fbil.checkpoint import atomic_write_text
 from fbil.errors import FbilError
 from fbil.evaluation.evaluate import demo_draw
+from fbil.evaluation.implied import actor_check
 from fbil.fb.model import FBModel
 from fbil.imitation import METHODS, Demos, imitate
 
@@ -32,17 +39,33 @@ GRADIENT = ("bcfb", "fmfb", "dmfb", "bbellfb", "fblossfb")
 
 
 def cosines(
-    model: FBModel, demos: Demos, methods: list[str], draws: int, k: int
+    model: FBModel, demos: Demos, methods: list[str], draws: int, k: int, actor: bool = False
 ) -> dict[str, list[float]]:
-    """cos(z_method, z_erfb) per method, one value per draw."""
+    """cos(z_method, z_erfb) per method, one value per draw; with `actor`, also each z's
+    actor gap at the draw's demo states (keys "<method>_actor_gap", "erfb_actor_gap")."""
     out: dict[str, list[float]] = {m: [] for m in methods}
     for draw in range(draws):
         group = demo_draw(demos, k, draw)
         z0 = imitate(model, group, "erfb").z.flatten()
-        for m in methods:
-            z = imitate(model, group, m).z.flatten()
+        zs = {m: imitate(model, group, m).z.flatten() for m in methods}
+        for m, z in zs.items():
             out[m].append(float(torch.nn.functional.cosine_similarity(z, z0, dim=0)))
+        if actor:
+            obs, act = _demo_rows(group)
+            for m, z in {"erfb": z0, **zs}.items():
+                gap = actor_check(model, z, obs, act, 64)
+                out.setdefault(f"{m}_actor_gap", []).append(gap["actor_gap"])
     return out
+
+
+def _demo_rows(group: Demos, every: int = 10) -> tuple[torch.Tensor, torch.Tensor | None]:
+    """Every `every`-th demo state s_t (t < T) and its action, when the file has them."""
+    trajs = group.trajectories
+    obs = torch.cat([torch.as_tensor(t.observation[:-1:every]).float() for t in trajs])
+    if not group.has_actions:
+        return obs, None
+    act = torch.cat([torch.as_tensor(t.action[::every]).float() for t in trajs])
+    return obs, act
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -53,6 +76,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--methods", default=",".join(GRADIENT))
     p.add_argument("--draws", type=int, default=5)
     p.add_argument("--k", type=int, default=1)
+    p.add_argument("--actor-check", action="store_true", help="also each z's actor gap")
     p.add_argument("--json", default=None)
     args = p.parse_args(argv)
     torch.set_num_threads(1)
