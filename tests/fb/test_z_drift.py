@@ -41,3 +41,19 @@ def test_cli_json_and_one_line_errors(
         assert script.main([*base, *extra]) == 2
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and err[0].startswith("z_drift: error:"), err
+
+
+def test_actor_check_adds_one_gap_per_draw_for_every_z(smoke_model_dir: Path) -> None:
+    from fbil.evaluation.implied import actor_check
+
+    model, demos = FBModel.load(smoke_model_dir), Demos.load(DEMOS / "loop.npz")
+    got = load_script("z_drift").cosines(model, demos, ["dmfb"], draws=2, k=1, actor=True)
+    assert set(got) == {"dmfb", "erfb_actor_gap", "dmfb_actor_gap"}
+    assert all(len(v) == 2 for v in got.values())
+    # ERFB's gap on draw 0: the probe's own check on every 10th state of that demo.
+    group = demo_draw(demos, 1, 0)
+    t = group.trajectories[0]
+    obs = torch.as_tensor(t.observation[:-1:10]).float()
+    act = torch.as_tensor(t.action[::10]).float()
+    want = actor_check(model, imitate(model, group, "erfb").z.flatten(), obs, act, 64)
+    assert got["erfb_actor_gap"][0] == pytest.approx(want["actor_gap"], abs=1e-6)
