@@ -95,10 +95,12 @@ def main(argv: list[str] | None = None) -> int:
         rows: list[dict[str, Any]] = []
         for name in args.models:
             model = FBModel.load(name)
-            per_task = {t: cosines(model, d, methods, args.draws, args.k) for t, d in demos.items()}
-            mean = {
-                m: statistics.mean(c for t in per_task for c in per_task[t][m]) for m in methods
+            per_task = {
+                t: cosines(model, d, methods, args.draws, args.k, args.actor_check)
+                for t, d in demos.items()
             }
+            keys = list(next(iter(per_task.values())))
+            mean = {m: statistics.mean(c for t in per_task for c in per_task[t][m]) for m in keys}
             rows.append({"model": name, "mean": mean, "tasks": per_task})
             print(f"{name}: " + ", ".join(f"{m} {v:.3f}" for m, v in mean.items()), flush=True)
     except FbilError as exc:

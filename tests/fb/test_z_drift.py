@@ -34,9 +34,11 @@ def test_cli_json_and_one_line_errors(
     script = load_script("z_drift")
     out = tmp_path / "d.json"
     base = [str(smoke_model_dir), "--demos", str(DEMOS), "--tasks", "loop", "--draws", "1"]
-    assert script.main([*base, "--methods", "bbellfb", "--json", str(out)]) == 0
+    args = [*base, "--methods", "bbellfb", "--actor-check", "--json", str(out)]
+    assert script.main(args) == 0
     row = json.loads(out.read_text())["rows"][0]
     assert list(row["tasks"]) == ["loop"] and len(row["tasks"]["loop"]["bbellfb"]) == 1
+    assert set(row["mean"]) == {"bbellfb", "erfb_actor_gap", "bbellfb_actor_gap"}
     for extra in (["--methods", "erfb"], ["--tasks", "nowhere"]):
         assert script.main([*base, *extra]) == 2
         err = capsys.readouterr().err.strip().splitlines()
