@@ -500,3 +500,45 @@ def test_independent_f_heads_train_with_a_mean_target_and_orthogonal_init(
         metrics = trainer.update()
     assert all(math.isfinite(float(v)) for v in metrics.values())
     assert all(not torch.equal(b, w) for b, w in zip(before, first, strict=True))
+
+
+def test_traj_z_noise_perturbs_only_trajectory_rows_within_its_angle(fixture_data: Path) -> None:
+    """traj_z_noise: each trajectory row's z is its unit mean plus a vector of norm at most
+    the noise, projected; every other row and draw is as without it."""
+    import dataclasses
+
+    from fbil.data import load_dataset
+    from fbil.errors import FbilError
+    from fbil.fb.config import FBTrainConfig, preset
+    from fbil.fb.train import TRAJ_Z_STATES, FBTrainer
+
+    model_cfg, train_cfg = preset("point_mass_maze", "smoke")
+    data = load_dataset(fixture_data)
+    l2 = dataclasses.replace(model_cfg, b_norm="l2")
+    plain = dataclasses.replace(train_cfg, z_from_traj_ratio=0.4, precision="fp32")
+    noisy = dataclasses.replace(plain, traj_z_noise=0.67)
+    a, b = FBTrainer(l2, plain, data), FBTrainer(l2, noisy, data)
+    ba, bb = a.sample(), b.sample()
+    assert ba.traj_noise is None and bb.traj_noise is not None
+    for field in ("obs", "action", "z_gauss", "perm", "use_b", "noise", "use_traj", "traj_obs"):
+        assert torch.equal(getattr(ba, field), getattr(bb, field)), field
+    norms = bb.traj_noise.norm(dim=-1)
+    assert float(norms.max()) <= 0.67 + 1e-5 and float(norms.std()) > 0.05  # uniform scales
+    with torch.no_grad():
+        za, zb = a.fb_losses(ba, frozen=False)["z"], b.fb_losses(bb, frozen=False)["z"]
+        b_traj = b.model.backward_net(bb.traj_obs.reshape(-1, l2.obs_dim))
+    rows = bb.use_traj
+    assert rows is not None and bool(rows.any())
+    torch.testing.assert_close(za[~rows], zb[~rows])  # the same networks (same seed)
+    unit = torch.nn.functional.normalize(
+        b_traj.reshape(len(rows), TRAJ_Z_STATES, -1).mean(1), dim=-1
+    )
+    want = b.model.project_z(unit + bb.traj_noise)
+    torch.testing.assert_close(zb[rows], want[rows])
+    cos = torch.nn.functional.cosine_similarity(zb[rows], unit[rows], dim=-1)
+    # A unit vector plus one of norm r < 1 turns by at most asin(r): cos >= sqrt(1 - r^2).
+    assert float(cos.min()) >= (1 - 0.67**2) ** 0.5 - 1e-4
+    with pytest.raises(FbilError, match="z_from_traj_ratio > 0"):
+        FBTrainConfig(traj_z_noise=0.5)
+    with pytest.raises(FbilError, match="traj_z_noise must be >= 0"):
+        FBTrainConfig(z_from_traj_ratio=0.25, traj_z_noise=-0.1)

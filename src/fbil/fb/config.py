@@ -67,6 +67,12 @@ class FBTrainConfig:
     # taken from the Gaussian rows: the shape of z that ERFB reads off a demonstration,
     # E_demo[B], which neither B of one state nor a Gaussian z resembles. 0: off.
     z_from_traj_ratio: float = 0.0
+    # Perturbs each trajectory-mean z: its unit direction plus s * g, g a random unit
+    # direction and s uniform in [0, traj_z_noise] per row, then projected. The gradient
+    # FB-IL methods move z ~34 degrees off E_demo[B] (cosine 0.83 on walker, session 38),
+    # z's F is not trained on unless they happen to come up as Gaussian draws; 0.67 reaches
+    # that angle at its widest. 0: off (needs z_from_traj_ratio > 0).
+    traj_z_noise: float = 0.0
     steps: int = 1_000_000
     seed: int = 0
     log_every: int = 250
@@ -136,6 +142,12 @@ class FBTrainConfig:
             raise FbilError(
                 "z_from_b_ratio, z_from_b_mean_ratio and z_from_traj_ratio must be >= 0 and "
                 f"sum to <= 1 (got {ratios[0]}, {ratios[1]}, {ratios[2]})"
+            )
+        if self.traj_z_noise < 0 or (self.traj_z_noise > 0 and self.z_from_traj_ratio == 0):
+            raise FbilError(
+                f"traj_z_noise must be >= 0 and perturbs trajectory z's only (got "
+                f"{self.traj_z_noise} with z_from_traj_ratio {self.z_from_traj_ratio}); set "
+                "z_from_traj_ratio > 0 too, or traj_z_noise 0"
             )
         if self.snapshot_every < 0:
             raise FbilError(f"snapshot_every must be >= 0 (0: none), got {self.snapshot_every}")

@@ -3,7 +3,8 @@
 One update, top to bottom (SPEC §4), for a batch of transitions (s_i, a_i, s'_i):
   z_i      Gaussian on the sphere, or (half the rows) B of another next state of the batch,
            or (z_from_b_mean_ratio) the mean of B over a random subset of the batch's next states
-           or (z_from_traj_ratio) the mean of B over states of one dataset trajectory segment
+           or (z_from_traj_ratio) the mean of B over states of one dataset trajectory segment,
+           with traj_z_noise > 0 its unit direction plus a random vector of norm <= traj_z_noise
   M^k_ij = F^k(s_i, a_i, z_i)^T B(s'_j)                                (both heads)
   T_ij   = min_k Fbar^k(s'_i, a'_i, z_i)^T Bbar(s'_j), a'_i = mu(s'_i, z_i) + clipped noise
            (target_heads="mean": the mean of the two heads instead of the min)
@@ -131,6 +132,8 @@ class Batch(NamedTuple):
     # each row's TRAJ_Z_STATES states of its segment (n, TRAJ_Z_STATES, obs_dim).
     use_traj: torch.Tensor | None = None
     traj_obs: torch.Tensor | None = None
+    # traj_z_noise > 0: each row's perturbation of its unit trajectory mean (n, d).
+    traj_noise: torch.Tensor | None = None
 
 
 class FBTrainer:
@@ -245,22 +248,15 @@ class FBTrainer:
             pick = (torch.rand(n, n, generator=gen) < size / n).float()
             pick[:, 0] += pick.sum(1) == 0  # never an empty subset
             mean_weights = pick / pick.sum(1, keepdim=True)
-        use_traj = traj_obs = None
-        if cfg.z_from_traj_ratio > 0:  # extra draws only then, after all the others
-            low = cfg.z_from_b_ratio + cfg.z_from_b_mean_ratio
-            use_traj = (u >= low) & (u < low + cfg.z_from_traj_ratio)
-            start = torch.randint(0, len(self.next_index), (n,), generator=gen).to(self.device)
-            lo, hi = TRAJ_Z_SPAN
-            span = torch.exp(torch.rand(n, generator=gen) * math.log(hi / lo)) * lo
-            room = (self.episode_last[start] - start + 1).float()
-            span = torch.minimum(span.to(self.device), room)
-            frac = torch.rand(n, TRAJ_Z_STATES, generator=gen).to(self.device)
-            at = start[:, None] + (frac * span[:, None]).long().clamp_max(room[:, None].long() - 1)
-            traj_obs = self.obs[self.next_index[at]]
+        use_traj, traj_obs = self._sample_traj(u) if cfg.z_from_traj_ratio > 0 else (None, None)
         # Two draws (target policy, then actor), as separate calls: one call of twice the
         # size would not give the same numbers.
         shape = (n, self.mcfg.act_dim)
         noise = torch.stack([torch.randn(shape, generator=gen) for _ in range(2)]) * cfg.stddev
+        traj_noise = None
+        if cfg.traj_z_noise > 0:  # after every other draw: runs without it keep their stream
+            g = nn.functional.normalize(torch.randn(n, self.mcfg.z_dim, generator=gen), dim=-1)
+            traj_noise = (torch.rand(n, 1, generator=gen) * cfg.traj_z_noise * g).to(self.device)
         to = self.device
         return Batch(
             self.obs[j - 1],
@@ -276,7 +272,23 @@ class FBTrainer:
             noise.clamp(-cfg.stddev_clip, cfg.stddev_clip).to(to),
             None if use_traj is None else use_traj.to(to),
             traj_obs,
+            traj_noise,
         )
+
+    def _sample_traj(self, u: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """Rows whose z is a trajectory mean (by the shared uniform draw u), and each row's
+        TRAJ_Z_STATES states of one segment of one episode (extra draws, after the others)."""
+        cfg, n, gen = self.cfg, self.cfg.batch_size, self.gen
+        low = cfg.z_from_b_ratio + cfg.z_from_b_mean_ratio
+        use_traj = (u >= low) & (u < low + cfg.z_from_traj_ratio)
+        start = torch.randint(0, len(self.next_index), (n,), generator=gen).to(self.device)
+        lo, hi = TRAJ_Z_SPAN
+        span = torch.exp(torch.rand(n, generator=gen) * math.log(hi / lo)) * lo
+        room = (self.episode_last[start] - start + 1).float()
+        span = torch.minimum(span.to(self.device), room)
+        frac = torch.rand(n, TRAJ_Z_STATES, generator=gen).to(self.device)
+        at = start[:, None] + (frac * span[:, None]).long().clamp_max(room[:, None].long() - 1)
+        return use_traj, self.obs[self.next_index[at]]
 
     def _combine_heads(self, x: torch.Tensor) -> torch.Tensor:
         """The two target heads (dim 0) as one target: their min, or their mean."""
@@ -369,7 +381,10 @@ class FBTrainer:
             with torch.no_grad(), amp:
                 b_traj = m.backward_net(batch.traj_obs[rows].reshape(-1, obs_dim)).float()
             m.backward_net.train(training)
-            z = z.index_copy(0, rows, b_traj.reshape(len(rows), k, -1).mean(1))
+            z_traj = b_traj.reshape(len(rows), k, -1).mean(1)
+            if batch.traj_noise is not None:  # traj_z_noise: a perturbed unit mean
+                z_traj = nn.functional.normalize(z_traj, dim=-1) + batch.traj_noise[rows]
+            z = z.index_copy(0, rows, z_traj)
         z = self.sqrt_d * nn.functional.normalize(z, dim=-1)
         with torch.no_grad(), amp:
             next_action = (m.actor(batch.boot_obs, z) + batch.noise[0]).clamp(-1, 1)
