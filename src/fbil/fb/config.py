@@ -70,8 +70,8 @@ class FBTrainConfig:
     # Perturbs each trajectory-mean z: its unit direction plus s * g, g a random unit
     # direction and s uniform in [0, traj_z_noise] per row, then projected. The gradient
     # FB-IL methods move z ~34 degrees off E_demo[B] (cosine 0.83 on walker, session 38),
-    # z's F is not trained on unless they happen to come up as Gaussian draws; 0.67 reaches
-    # that angle at its widest. 0: off (needs z_from_traj_ratio > 0).
+    # z's F is not trained on unless they happen to come up as Gaussian draws; 0.67 spans
+    # that angle (up to 42 degrees). 0: off (needs z_from_traj_ratio > 0).
     traj_z_noise: float = 0.0
     steps: int = 1_000_000
     seed: int = 0
