@@ -135,3 +135,22 @@ def test_an_implied_reward_json_next_to_the_results_adds_its_table(tmp_path: Pat
     assert "| loop | 90.0 (800.0) | -3.00 | 0.10 / 0.20 | -0.50 | 0.00 | F |" in text
     (tmp_path / "implied_reward.json").write_text(json.dumps({**table, "domain": "walker"}))
     assert "what a demo's z pays" not in write_report(results, tmp_path / "r2").read_text()
+
+
+def test_a_z_without_implied_reward_gets_a_nan_gap_not_a_crash(
+    smoke_model_dir: Path, fixture_data: Path
+) -> None:
+    """A task the data never pays gives z_r = 0: r_z is flat over the data, so its gap is
+    undefined (nan) and the probe goes on."""
+    from fbil.data import load_dataset
+    from fbil.fb.model import FBModel
+
+    model, data = FBModel.load(smoke_model_dir), load_dataset(fixture_data)
+    unpaid = [t for t in ("loop", "square", "fast_slow") if not np.any(data.reward(t))]
+    if not unpaid:
+        pytest.skip("every candidate task is paid somewhere in the fixture")
+    demos = Path(__file__).resolve().parents[2] / "artifacts" / "demos" / "point_mass_maze"
+    cfg = probe.ProbeSettings(episodes=1, horizon=50, actions=4)
+    table = probe.probe_model(model, data, demos, unpaid[:1], cfg)
+    row = table["tasks"][unpaid[0]]
+    assert np.isnan(row["z_r"]["gap"]) and np.isfinite(row["ERFB"]["gap"])

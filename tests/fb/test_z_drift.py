@@ -59,3 +59,10 @@ def test_actor_check_adds_one_gap_per_draw_for_every_z(smoke_model_dir: Path) ->
     act = torch.as_tensor(t.action[::10]).float()
     want = actor_check(model, imitate(model, group, "erfb").z.flatten(), obs, act, 64)
     assert got["erfb_actor_gap"][0] == pytest.approx(want["actor_gap"], abs=1e-6)
+
+
+def test_all_tasks_are_the_domains_standard_demo_files(smoke_model_dir: Path) -> None:
+    from fbil.envs import get_domain
+
+    got = load_script("z_drift")._load_demos(str(DEMOS), "all", "point_mass_maze")
+    assert list(got) == list(get_domain("point_mass_maze").task_names)  # no *_shifted files

@@ -134,7 +134,8 @@ def probe_z(
         "r_z_demo": r_demo,
         "r_z_data_mean": float(r_data.mean()),
         "r_z_data_std": std,
-        "gap": (r_roll - r_demo) / std,
+        # nan where r_z does not vary over the data (z has no implied reward to compare)
+        "gap": (r_roll - r_demo) / std if std > 0 else float("nan"),
         "value": value_check(model, z, w, obs, cfg.horizon),
         "at_demo": actor_check(model, z, batch.obs, batch.action, cfg.actions),
         "at_rollout": actor_check(model, z, visited[::10], None, cfg.actions),
