@@ -29,8 +29,8 @@ from typing import Any
 import torch
 
 from fbil.checkpoint import atomic_write_text
-from fbil.envs import get_domain
 from fbil.errors import FbilError
+from fbil.evaluation.benchmark import load_task_demos
 from fbil.evaluation.evaluate import demo_draw
 from fbil.evaluation.implied import actor_check
 from fbil.fb.model import FBModel
@@ -69,21 +69,6 @@ def _demo_rows(group: Demos, every: int = 10) -> tuple[torch.Tensor, torch.Tenso
     return obs, act
 
 
-def _load_demos(folder: str, tasks: str, domain: str | None) -> dict[str, Demos]:
-    """Each task's standard demo file (<task>.npz); `all`: every task of the domain."""
-    if tasks == "all":
-        if domain is None:
-            raise FbilError("the model does not say its domain; pass --tasks t1,t2")
-        names = list(get_domain(domain).task_names)
-    else:
-        names = [t.strip() for t in tasks.split(",") if t.strip()]
-    files = [Path(folder) / f"{t}.npz" for t in names]
-    missing = [f.name for f in files if not f.is_file()]
-    if missing or not files:
-        raise FbilError(f"no demo file {', '.join(missing) or tasks} in {folder}; check --tasks")
-    return {f.stem: Demos.load(f) for f in files}
-
-
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("models", nargs="+")
@@ -101,7 +86,7 @@ def main(argv: list[str] | None = None) -> int:
         bad = [m for m in methods if m not in METHODS or not METHODS[m].gradient]
         if bad:
             raise FbilError(f"not gradient FB-IL methods: {', '.join(bad)}; use {GRADIENT}")
-        demos = _load_demos(args.demos, args.tasks, FBModel.load(args.models[0]).domain)
+        demos = load_task_demos(args.demos, args.tasks, FBModel.load(args.models[0]).domain)
         rows: list[dict[str, Any]] = []
         for name in args.models:
             model = FBModel.load(name)

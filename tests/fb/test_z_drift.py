@@ -63,6 +63,7 @@ def test_actor_check_adds_one_gap_per_draw_for_every_z(smoke_model_dir: Path) ->
 
 def test_all_tasks_are_the_domains_standard_demo_files(smoke_model_dir: Path) -> None:
     from fbil.envs import get_domain
+    from fbil.evaluation.benchmark import load_task_demos
 
-    got = load_script("z_drift")._load_demos(str(DEMOS), "all", "point_mass_maze")
+    got = load_task_demos(DEMOS, "all", "point_mass_maze")
     assert list(got) == list(get_domain("point_mass_maze").task_names)  # no *_shifted files

@@ -85,6 +85,26 @@ def demo_file(demos_dir: Path, task: str, demo_set: str) -> Path:
     return demos_dir / (f"{task}.npz" if demo_set == "standard" else f"{task}_{demo_set}.npz")
 
 
+def load_task_demos(demos_dir: str | Path, tasks: str, domain: str | None) -> dict[str, Any]:
+    """Each task's standard demo file in `demos_dir` (task -> Demos), for a comma list of
+    tasks or `all` (the domain's tasks); a one-line error names the missing files."""
+    from fbil.envs import get_domain
+    from fbil.imitation.demos import Demos
+
+    if tasks == "all":
+        if domain is None:
+            raise FbilError("the model does not say its domain; pass the tasks by name")
+        names = list(get_domain(domain).task_names)
+    else:
+        names = [t.strip() for t in tasks.split(",") if t.strip()]
+    files = [demo_file(Path(demos_dir), t, "standard") for t in names]
+    missing = [f.name for f in files if not f.is_file()]
+    if missing or not files:
+        found = ", ".join(missing) or tasks
+        raise FbilError(f"no demo file {found} in {demos_dir}; check the tasks")
+    return {t: Demos.load(f) for t, f in zip(names, files, strict=True)}
+
+
 def make_jobs(
     model: str | Path | None,
     demos_dir: str | Path,
