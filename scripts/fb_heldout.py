@@ -38,12 +38,11 @@ from fbil.fb.model import FBModel
 from fbil.fb.train import FBTrainer
 
 
-def _train_config(model_dir: Path) -> FBTrainConfig:
+def _train_config(model: FBModel) -> FBTrainConfig:
     """The training config saved with the model (z sampling, gamma, batch size)."""
-    try:
-        saved = json.loads((model_dir / "config.json").read_text())["train_config"]
-    except (OSError, KeyError, ValueError) as exc:
-        raise FbilError(f"{model_dir}: no readable train_config in config.json ({exc})") from None
+    saved = model.metadata.get("train_config")
+    if not isinstance(saved, dict):
+        raise FbilError("this model records no train_config; was it trained by `fbil pretrain`?")
     known = {f.name for f in dataclasses.fields(FBTrainConfig)}
     return FBTrainConfig(**{k: v for k, v in saved.items() if k in known})
 
@@ -87,7 +86,7 @@ def main(argv: list[str] | None = None) -> int:
                 train = load_dataset(args.data, model.domain)
                 held = load_dataset(args.heldout, model.domain)
             assert held is not None
-            cfg = _train_config(Path(name))
+            cfg = _train_config(model)
             t = measure_terms(model, cfg, train, args.batches, args.seed)
             h = measure_terms(model, cfg, held, args.batches, args.seed)
             rows.append({"model": name, "train": t, "heldout": h, "r": h["diag"] / t["diag"]})

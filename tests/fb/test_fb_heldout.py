@@ -24,7 +24,7 @@ def test_diag_is_the_models_own_measure_on_the_batch(
     script = load_script("fb_heldout")
     model, data = FBModel.load(smoke_model_dir), load_dataset(fixture_data)
     # Gaussian z's only, so the batch's z is sqrt(d) * normalize(z_gauss), known here.
-    cfg = dataclasses.replace(script._train_config(smoke_model_dir), z_from_b_ratio=0.0)
+    cfg = dataclasses.replace(script._train_config(model), z_from_b_ratio=0.0)
     got = script.measure_terms(model, cfg, data, batches=1, seed=3)
     batch = FBTrainer(model.config, dataclasses.replace(cfg, seed=3), data).sample()
     z = math.sqrt(model.config.z_dim) * torch.nn.functional.normalize(batch.z_gauss, dim=-1)
