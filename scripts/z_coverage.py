@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import statistics
 import sys
 from pathlib import Path
@@ -31,7 +30,7 @@ from fbil.errors import FbilError
 from fbil.evaluation.benchmark import load_task_demos
 from fbil.evaluation.evaluate import demo_draw
 from fbil.fb.model import FBModel
-from fbil.fb.train import TRAJ_Z_SPAN, TRAJ_Z_STATES
+from fbil.fb.train import TRAJ_Z_STATES, episode_last_transition, segment_states
 from fbil.imitation import METHODS, imitate
 
 
@@ -43,14 +42,7 @@ def training_directions(
     gen = torch.Generator().manual_seed(seed)
     nxt, obs = torch.from_numpy(data.next_index), torch.from_numpy(data.observation)
     b = model.backward(obs[nxt[torch.randint(0, len(nxt), (states,), generator=gen)]])
-    start = torch.randint(0, len(nxt), (segments,), generator=gen)
-    first = nxt[start]
-    room = (torch.from_numpy(data.state_episode_end)[first] - first + 1).float()
-    lo, hi = TRAJ_Z_SPAN
-    span = torch.exp(torch.rand(segments, generator=gen) * math.log(hi / lo)) * lo
-    span = torch.minimum(span, room)
-    frac = torch.rand(segments, TRAJ_Z_STATES, generator=gen)
-    at = first[:, None] + (frac * span[:, None]).long().clamp_max(room[:, None].long() - 1)
+    at = segment_states(nxt, episode_last_transition(nxt), segments, gen)
     means = model.backward(obs[at].reshape(-1, obs.shape[1])).reshape(segments, TRAJ_Z_STATES, -1)
     unit = torch.nn.functional.normalize
     return unit(b, dim=-1), unit(means.mean(1), dim=-1)

@@ -542,3 +542,24 @@ def test_traj_z_noise_perturbs_only_trajectory_rows_within_its_angle(fixture_dat
         FBTrainConfig(traj_z_noise=0.5)
     with pytest.raises(FbilError, match="traj_z_noise must be >= 0"):
         FBTrainConfig(z_from_traj_ratio=0.25, traj_z_noise=-0.1)
+
+
+def test_segment_states_stay_in_the_start_transitions_episode() -> None:
+    """The segment sampler shared by training and scripts/z_coverage.py: every row's states
+    are next states of one episode, at or after its start transition's next state."""
+    from fbil.fb.train import TRAJ_Z_STATES, episode_last_transition, segment_states
+
+    lengths = [5, 3, 900, 2, 40]  # states per episode; the first state of each is a reset
+    first = torch.tensor([0, *torch.tensor(lengths).cumsum(0)[:-1].tolist()])
+    episode = torch.repeat_interleave(torch.arange(len(lengths)), torch.tensor(lengths))
+    nxt = torch.tensor([i for i in range(sum(lengths)) if i not in set(first.tolist())])
+    last = episode_last_transition(nxt)
+    assert torch.equal(episode[nxt[last]], episode[nxt])
+    assert torch.equal(
+        nxt[last] + 1, torch.tensor([*first[1:].tolist(), sum(lengths)])[episode[nxt]]
+    )
+    at = segment_states(nxt, last, 4000, torch.Generator().manual_seed(0))
+    assert at.shape == (4000, TRAJ_Z_STATES)
+    assert bool((episode[at] == episode[at[:, :1]]).all())
+    assert not bool(torch.isin(at, first).any())
+    assert int((at.max(1).values - at.min(1).values).max()) > 100  # long spans are drawn

@@ -98,6 +98,34 @@ def offdiag_residual_sq(f: torch.Tensor, b: torch.Tensor, target: torch.Tensor) 
     return total / (n * (n - 1))
 
 
+def episode_last_transition(next_index: torch.Tensor) -> torch.Tensor:
+    """For each transition t (rows of `next_index`), the last transition of its episode:
+    t and t + 1 are in one episode when their next states are consecutive."""
+    breaks = torch.nonzero(next_index[1:] != next_index[:-1] + 1).flatten()
+    last = torch.tensor([len(next_index) - 1], device=next_index.device)
+    ends = torch.cat([breaks, last])
+    episode = torch.zeros(len(next_index), dtype=torch.long, device=next_index.device)
+    episode[breaks + 1] = 1
+    return ends[episode.cumsum(0)]
+
+
+def segment_states(
+    next_index: torch.Tensor, episode_last: torch.Tensor, n: int, gen: torch.Generator
+) -> torch.Tensor:
+    """State indices (n x TRAJ_Z_STATES) of n random trajectory segments, as training draws
+    them: a uniform start transition, a log-uniform span in TRAJ_Z_SPAN cut at the episode's
+    end, and TRAJ_Z_STATES uniform positions in it. Three draws from `gen` (CPU), in order."""
+    dev = next_index.device
+    start = torch.randint(0, len(next_index), (n,), generator=gen).to(dev)
+    lo, hi = TRAJ_Z_SPAN
+    span = torch.exp(torch.rand(n, generator=gen) * math.log(hi / lo)) * lo
+    room = (episode_last[start] - start + 1).float()
+    span = torch.minimum(span.to(dev), room)
+    frac = torch.rand(n, TRAJ_Z_STATES, generator=gen).to(dev)
+    at = start[:, None] + (frac * span[:, None]).long().clamp_max(room[:, None].long() - 1)
+    return next_index[at]
+
+
 def git_commit() -> str:
     try:
         out = subprocess.run(
@@ -200,14 +228,7 @@ class FBTrainer:
             self.k_probs = (w / w.sum()).float()
             self.measure_mass = float(w.sum())  # sum_{k<n} gamma^k
         if self.cfg.z_from_traj_ratio > 0:
-            # Transitions t and t+1 are consecutive in one episode when their next states
-            # are; episode_last[t]: the last transition of t's episode.
-            nxt = self.next_index
-            breaks = torch.nonzero(nxt[1:] != nxt[:-1] + 1).flatten()
-            ends = torch.cat([breaks, torch.tensor([len(nxt) - 1], device=self.device)])
-            episode = torch.zeros(len(nxt), dtype=torch.long, device=self.device)
-            episode[breaks + 1] = 1
-            self.episode_last = ends[episode.cumsum(0)]
+            self.episode_last = episode_last_transition(self.next_index)
 
     # -- one update, in named steps -----------------------------------------------------
     def update(self) -> dict[str, torch.Tensor]:
@@ -278,17 +299,10 @@ class FBTrainer:
     def _sample_traj(self, u: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """Rows whose z is a trajectory mean (by the shared uniform draw u), and each row's
         TRAJ_Z_STATES states of one segment of one episode (extra draws, after the others)."""
-        cfg, n, gen = self.cfg, self.cfg.batch_size, self.gen
+        cfg, n = self.cfg, self.cfg.batch_size
         low = cfg.z_from_b_ratio + cfg.z_from_b_mean_ratio
         use_traj = (u >= low) & (u < low + cfg.z_from_traj_ratio)
-        start = torch.randint(0, len(self.next_index), (n,), generator=gen).to(self.device)
-        lo, hi = TRAJ_Z_SPAN
-        span = torch.exp(torch.rand(n, generator=gen) * math.log(hi / lo)) * lo
-        room = (self.episode_last[start] - start + 1).float()
-        span = torch.minimum(span.to(self.device), room)
-        frac = torch.rand(n, TRAJ_Z_STATES, generator=gen).to(self.device)
-        at = start[:, None] + (frac * span[:, None]).long().clamp_max(room[:, None].long() - 1)
-        return use_traj, self.obs[self.next_index[at]]
+        return use_traj, self.obs[segment_states(self.next_index, self.episode_last, n, self.gen)]
 
     def _combine_heads(self, x: torch.Tensor) -> torch.Tensor:
         """The two target heads (dim 0) as one target: their min, or their mean."""
