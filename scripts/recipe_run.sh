@@ -10,7 +10,7 @@ set -euo pipefail
 # Usage: scripts/recipe_run.sh DOMAIN DATA OUT STEPS
 #   env: SETS ("--set k=v ..." training settings), SEED (0), PRESET (cpu), THREADS (1),
 #        ZS_EPISODES (20), DRAWS (5), EPISODES (20: per grid job), TASKS (all),
-#        SNAPSHOT_EVERY (25000)
+#        SNAPSHOT_EVERY (25000), WORKERS (1: grid workers, THREADS threads each)
 cd "$(dirname "$0")/.."
 usage="usage: scripts/recipe_run.sh DOMAIN DATA OUT STEPS"
 DOMAIN=${1:?$usage}
@@ -40,7 +40,7 @@ echo "== $(date -u +%FT%TZ) standard K = 1 grid"
 task_arg=()
 [ "$TASKS" != all ] && task_arg=(--tasks "$TASKS")
 fbil benchmark --domain "$DOMAIN" --model "$OUT" --demos "$demos" --methods fb-il --k 1 \
-  --draws "${DRAWS:-5}" --episodes "${EPISODES:-20}" --workers 1 --threads "$THREADS" --quiet \
+  --draws "${DRAWS:-5}" --episodes "${EPISODES:-20}" --workers "${WORKERS:-1}" --threads "$THREADS" --quiet \
   "${task_arg[@]}" --out "$OUT/results.jsonl"
 if [ ! -f "$OUT/z_drift.json" ]; then
   echo "== $(date -u +%FT%TZ) z drift and actor check"
