@@ -5,6 +5,10 @@ set -euo pipefail
 #   200 000 on rnd_uniform_1000, then 400 000 on rnd_uniform_1000_x4);
 #   then zero-shot over all eight tasks (50 episodes, over DATA2) and the standard K = 1 grid
 #   of the eight FB-IL methods (5 draws x 20 episodes), the inputs of scripts/model_seeds.py.
+# With SETS="--set ema_decay=D" the run also keeps a Polyak average (saved as OUT's model);
+# the trained weights are the same to the bit, saved at OUT/raw/snapshots/step_<STEPS>, and
+# both are checked: the trained weights first (the recipe's model, as without the average),
+# then the average (OUT), each with its zero_shot.json and results.jsonl in its own folder.
 # Every step resumes after a kill: rerun the same command (training resumes from OUT's
 # checkpoint, written every 3 minutes; the grid skips finished jobs). To carry a run to a
 # later session, commit OUT/checkpoint.safetensors, config.json and train_log.csv.
@@ -40,13 +44,19 @@ train() {  # train DATA N: resume (or start) the run on DATA up to step N
 mkdir -p "$OUT"
 [ "$(done_steps)" -lt "$STAGE1_STEPS" ] && train "$DATA1" "$STAGE1_STEPS"
 [ "$(done_steps)" -lt "$STEPS" ] && train "$DATA2" "$STEPS"
-if [ ! -f "$OUT/zero_shot.json" ]; then
-  echo "== $(date -u +%FT%TZ) zero-shot"
-  fbil zero-shot "$OUT" --data "$DATA2" --tasks all --episodes "${ZS_EPISODES:-50}" --threads "$THREADS" --json \
-    > "$OUT/zero_shot.json.part" && mv "$OUT/zero_shot.json.part" "$OUT/zero_shot.json"
-fi
-echo "== $(date -u +%FT%TZ) standard K = 1 grid"
-fbil benchmark --domain point_mass_maze --model "$OUT" \
-  --demos artifacts/demos/point_mass_maze --methods all --k 1 --draws "${DRAWS:-5}" --episodes "${EPISODES:-20}" \
-  --workers 1 --threads "$THREADS" --quiet --out "$OUT/results.jsonl"
-echo "== $(date -u +%FT%TZ) done: python scripts/model_seeds.py --run $OUT=$OUT/results.jsonl ..."
+check() {  # check MODEL: zero-shot and the K = 1 grid, into MODEL's folder
+  if [ ! -f "$1/zero_shot.json" ]; then
+    echo "== $(date -u +%FT%TZ) zero-shot $1"
+    fbil zero-shot "$1" --data "$DATA2" --tasks all --episodes "${ZS_EPISODES:-50}" --threads "$THREADS" --json \
+      > "$1/zero_shot.json.part" && mv "$1/zero_shot.json.part" "$1/zero_shot.json"
+  fi
+  echo "== $(date -u +%FT%TZ) standard K = 1 grid $1"
+  fbil benchmark --domain point_mass_maze --model "$1" \
+    --demos artifacts/demos/point_mass_maze --methods all --k 1 --draws "${DRAWS:-5}" --episodes "${EPISODES:-20}" \
+    --workers 1 --threads "$THREADS" --quiet --out "$1/results.jsonl"
+}
+RAW=$OUT/raw/snapshots/step_$(printf %07d "$STEPS")
+models=("$OUT")
+[ -d "$OUT/raw" ] && models=("$RAW" "$OUT")  # ema_decay on: trained weights, then the average
+for m in "${models[@]}"; do check "$m"; done
+echo "== $(date -u +%FT%TZ) done: python scripts/model_seeds.py --run ${models[0]}=${models[0]}/results.jsonl ..."

@@ -438,6 +438,35 @@ def test_ema_survives_a_resume_exactly(fixture_data: Path, tmp_path: Path) -> No
         torch.testing.assert_close(second.ema.state_dict()[key], value, rtol=1e-6, atol=1e-7)
 
 
+def test_the_average_leaves_the_trained_weights_unchanged_to_the_bit(
+    fixture_data: Path, tmp_path: Path
+) -> None:
+    """ema_decay on, from the start or from a resume, draws no random numbers and touches
+    neither weights nor optimisers: the trained weights equal a run without it, exactly
+    (what lets a recipe's run carry the average as a free paired check)."""
+    from fbil.checkpoint import load_state, save_state
+
+    plain = _smoke_trainer(fixture_data, steps=6)
+    averaged = _smoke_trainer(fixture_data, steps=6, ema_decay=0.9)
+    half = _smoke_trainer(fixture_data, steps=6)
+    for _ in range(3):
+        half.update()
+    save_state(tmp_path / "ckpt.safetensors", half.state())
+    resumed = _smoke_trainer(fixture_data, steps=6, ema_decay=0.9)  # the average from here
+    resumed.load(load_state(tmp_path / "ckpt.safetensors"))
+    for _ in range(6):
+        plain.update()
+        averaged.update()
+    for _ in range(3):
+        resumed.update()
+    want = plain.model.state_dict()
+    for other in (averaged, resumed):
+        got = other.model.state_dict()
+        assert all(torch.equal(got[k], v) for k, v in want.items())
+        assert torch.equal(other.gen.get_state(), plain.gen.get_state())
+    assert not all(torch.equal(averaged.ema.state_dict()[k], v) for k, v in want.items())
+
+
 @pytest.mark.parametrize("decay", [-0.1, 1.0])
 def test_ema_decay_outside_its_range_is_named(decay: float) -> None:
     from fbil.errors import FbilError
