@@ -26,3 +26,23 @@ def test_sparse_in_log_files_and_live_on_terminals(monkeypatch: pytest.MonkeyPat
 
     monkeypatch.setattr(sys, "stderr", Terminal())
     assert _interval() == 1.0
+
+
+def test_a_log_file_gets_whole_lines_and_postfixes_wait_for_the_interval(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Redirected stderr: no carriage returns, and 100 updates with a postfix inside one
+    interval render only the opening and closing lines (a postfix used to force a render
+    every time, filling nohup logs with one endless line)."""
+    log = io.StringIO()
+    monkeypatch.setattr(sys, "stderr", log)
+    bar = progress_bar(total=100, desc="pretrain")
+    for i in range(100):
+        bar.set_postfix(loss=f"{i}")
+        bar.update(1)
+    bar.close()
+    text = log.getvalue()
+    assert "\r" not in text
+    lines = [line for line in text.splitlines() if line.strip()]
+    assert len(lines) == 2, lines
+    assert lines[0].startswith("pretrain:   0%") and "100/100" in lines[1] and "loss=99" in lines[1]
