@@ -41,6 +41,7 @@ def test_a_log_file_gets_whole_lines_and_postfixes_wait_for_the_interval(
         bar.set_postfix(loss=f"{i}")
         bar.update(1)
     bar.close()
+    assert bar.maxinterval == 60.0  # tqdm's monitor thread would redraw every 10 s
     text = log.getvalue()
     assert "\r" not in text
     lines = [line for line in text.splitlines() if line.strip()]

@@ -37,6 +37,8 @@ def progress_bar(**kwargs: Any) -> Bar:
     stderr goes, unless given."""
     terminal = sys.stderr.isatty()
     kwargs.setdefault("mininterval", 1.0 if terminal else 60.0)
-    if not terminal and "file" not in kwargs:
-        kwargs["file"] = _Lines(sys.stderr)
+    if not terminal:
+        # tqdm's monitor redraws a bar idle for maxinterval (10 s by default): not in logs.
+        kwargs.setdefault("maxinterval", max(kwargs["mininterval"], 10.0))
+        kwargs.setdefault("file", _Lines(sys.stderr))
     return Bar(**kwargs)
