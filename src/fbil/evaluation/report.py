@@ -6,7 +6,8 @@ baselines) next to the paper's Tables 5-7, the score by family and IL principle 
 paper's Fig. 3), time to policy of every method on a log scale next to Table 8 (Fig. 2),
 the baselines' score against training budget when a budget curve is there
 (`fbil.evaluation.budget_curve`), the model seeds' spread when a seeds.json is there
-(`fbil.evaluation.seeds`), one run's imitation against its training length when a
+(`fbil.evaluation.seeds`), several recipes over their seeds when a recipes.json is there
+(`fbil.evaluation.recipes`), one run's imitation against its training length when a
 training_curve.json is there (`fbil.evaluation.training_curve`), the demo-shift and K
 comparisons when the results hold them, and the demonstration against each method's
 rollout in the domain's picture (the maze: paths, as the paper's Fig. 6; locomotion: frame
@@ -48,6 +49,7 @@ from fbil.evaluation.paper import (
     above_max_return,
     paper_score,
 )
+from fbil.evaluation.recipes import find_recipes, recipes_section
 from fbil.evaluation.seeds import find_seeds, seeds_section
 from fbil.evaluation.timing import find_timing, timing_section
 from fbil.evaluation.training_curve import find_training_curve, training_curve_section
@@ -390,6 +392,9 @@ def _domain_report(
         seeds = find_seeds(files, domain)  # several models of one recipe (issue #23)
         if seeds is not None:
             lines += seeds_section(seeds)
+        recipes = find_recipes(files, domain)  # several recipes, each over its seeds
+        if recipes is not None:
+            lines += recipes_section(recipes)
         lines += _other_settings(summary, main)
     lines += _trajectory_figures(domain, rows, out)
     report = out / "report.md"
