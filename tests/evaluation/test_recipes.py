@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from fbil.errors import FbilError
-from fbil.evaluation.recipes import build_arm, build_recipes
+from fbil.evaluation.recipes import build_arm, build_recipes, recipes_section
 from fbil.evaluation.report import write_report
 from tests.evaluation.test_seeds import _model, _results
 from tests.script_module import load_script
@@ -24,10 +24,10 @@ def arms(tmp_path: Path) -> dict[str, str]:
     """Arm A: two seeds in a seeds.json; arm B: one model with its results file."""
     runs = []
     for seed, (reach, erfb, goalfb) in enumerate([(400.0, 0.4, 0.6), (600.0, 0.6, 1.0)]):
-        model = _model(tmp_path, f"a{seed}", seed, {"reach_a": reach, "loop": 0.0})
+        model = _model(tmp_path, f"a{seed}", seed, {"reach_a": reach, "loop": 200.0})
         runs.append(f"--run={model}={_results(tmp_path, model, erfb, goalfb)}")
     assert model_seeds.main([*runs, "--out", str(tmp_path / "seeds_a.json")]) == 0
-    single = _model(tmp_path, "b0", 7, {"reach_a": 900.0, "loop": 100.0})
+    single = _model(tmp_path, "b0", 7, {"reach_a": 900.0, "loop": 360.0})
     return {
         "A": str(tmp_path / "seeds_a.json"),
         "B": f"{single}@{_results(tmp_path, single, 0.9, 0.3)}",
@@ -58,6 +58,18 @@ def test_arms_side_by_side_in_the_script_and_the_report(
     assert "| B | 7 | 900.0 | 90.0 | 30.0 | **60.0** |" in text  # one seed: no spread
     assert "| paper (10 GPU-trained models) | – | – | 72.8 | 88.6 | 80.7 |" in text
     assert "- **B**: one seed only" in text
+    assert "ERFB's return from one demo" not in text  # no ERFB return on reach_a: no ratios
+
+
+def test_erfb_against_zero_shot_per_task(arms: dict[str, str], tmp_path: Path) -> None:
+    argv = [f"--arm=A={arms['A']}", f"--arm=B={arms['B']}", "--zero-shot-tasks", "loop"]
+    assert recipes_table.main([*argv, "--out", str(tmp_path / "r.json")]) == 0
+    a, b = json.loads((tmp_path / "r.json").read_text())["arms"]
+    # ERFB returns 0.4 and 0.6 of the expert's 200 on loop; zero-shot 200 on both seeds.
+    assert a["ratio_to_zero_shot"]["erfb"] == {"loop": pytest.approx(0.5)}
+    assert b["ratio_to_zero_shot"]["erfb"] == {"loop": pytest.approx(0.5)}  # 180 / 360
+    text = "\n".join(recipes_section(json.loads((tmp_path / "r.json").read_text())))
+    assert "| recipe | loop |" in text and "| A | 0.50 |" in text and "| B | 0.50 |" in text
 
 
 def test_arms_must_compare(tmp_path: Path) -> None:

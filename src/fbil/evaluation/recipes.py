@@ -1,6 +1,6 @@
 """Recipes compared (issue #23): several FB training recipes of one domain side by side, each
 an arm of one or more model seeds (the entries of `fbil.evaluation.seeds`), so that the
-report shows what each recipe gives at the same steps on the same data: per arm, the mean
+report shows what each recipe gives with the same demos and evaluation: per arm, the mean
 over its seeds of the zero-shot mean and of each method's standard K = 1 score, and the mean
 over the methods with its spread over seeds.
 
@@ -22,6 +22,9 @@ from fbil.evaluation.sidecar import find_sidecar
 from fbil.imitation.methods import MAIN_METHODS
 
 RECIPES_FILE = "recipes.json"
+# The method whose return from one demo is set against the model's own zero-shot return
+# (issue #23: ERFB's should reach 80 % of z_r's on each of the zero-shot tasks).
+RATIO_METHOD = "erfb"
 
 
 def _spread(values: Sequence[float]) -> dict[str, float]:
@@ -51,7 +54,9 @@ def build_arm(
             "model": str(e["model"]),
             "seed": e.get("seed"),
             "zero_shot_mean": _zero_shot_mean(e, tasks),
+            "zero_shot": dict(e.get("zero_shot", {})),
             "scores": dict(e["scores"]),
+            "returns": dict(e.get("returns", {})),  # absent from older seeds.json files
         }
         for e in entries
     ]
@@ -59,9 +64,21 @@ def build_arm(
             "per_seed": per_seed}  # fmt: skip
 
 
-def _summarise(arm: dict[str, Any], methods: Sequence[str]) -> dict[str, Any]:
+def _ratios(seeds: Sequence[dict[str, Any]], method: str, tasks: Sequence[str]) -> dict:
+    """Per task, the mean over seeds of `method`'s return from the demos over the same
+    model's zero-shot return (the true reward's z); {} where a seed lacks either."""
+    out = {}
+    for t in tasks:
+        pairs = [(s["returns"].get(method, {}).get(t), s["zero_shot"].get(t)) for s in seeds]
+        if pairs and all(r is not None and z for r, z in pairs):
+            out[t] = float(np.mean([r / z for r, z in pairs]))
+    return out
+
+
+def _summarise(arm: dict[str, Any], methods: Sequence[str], tasks: Sequence[str]) -> dict:
     seeds = arm["per_seed"]
     return {
+        "ratio_to_zero_shot": {RATIO_METHOD: _ratios(seeds, RATIO_METHOD, tasks)},
         **arm,
         "seeds": [s["seed"] for s in seeds],
         "zero_shot_mean": _spread([s["zero_shot_mean"] for s in seeds]),
@@ -92,7 +109,7 @@ def build_recipes(arms: Sequence[dict[str, Any]], tasks: Sequence[str]) -> dict[
         "domain": domains[0],
         "zero_shot_tasks": list(tasks),
         "methods": methods,
-        "arms": [_summarise(a, methods) for a in arms],
+        "arms": [_summarise(a, methods, tasks) for a in arms],
     }
 
 
@@ -113,10 +130,10 @@ def recipes_section(recipes: dict[str, Any]) -> list[str]:
     lines = [
         "## Recipes compared",
         "",
-        "FB training recipes of this domain at the same steps on the same data, each trained "
-        "with the seeds listed; every model has its own zero-shot check (mean return over "
-        f"{tasks}) and its own standard K=1 grid (score, %). Mean ± std over seeds (no std "
-        "with one seed).",
+        "FB training recipes of this domain (what each changes is listed below the table), "
+        "each trained with the seeds listed; every model has its own zero-shot check (mean "
+        f"return over {tasks}) and its own standard K=1 grid with the same demos (score, %). "
+        "Mean ± std over seeds (no std with one seed).",
         "",
         "| recipe | seeds | zero-shot mean | " + " | ".join(methods) + " | mean of methods |",
         "|---|---|---|" + "---|" * len(methods) + "---|",
@@ -134,6 +151,26 @@ def recipes_section(recipes: dict[str, Any]) -> list[str]:
         mean = sum(paper[m] for m in methods) / len(methods)
         cells = " | ".join(f"{paper[m]:.1f}" for m in methods)
         lines.append(f"| paper (10 GPU-trained models) | – | – | {cells} | {mean:.1f} |")
-    lines.append("")
+    lines += ["", *_ratio_table(recipes)]
     lines += [f"- **{a['name']}**: {a['description']}" for a in recipes["arms"] if a["description"]]
+    return [*lines, ""]
+
+
+def _ratio_table(recipes: dict[str, Any]) -> list[str]:
+    """ERFB's return from one demo over the same model's zero-shot return, per task."""
+    tasks = recipes["zero_shot_tasks"]
+    rows = [(a["name"], a["ratio_to_zero_shot"][RATIO_METHOD]) for a in recipes["arms"]]
+    if not tasks or not any(r for _, r in rows):
+        return []
+    lines = [
+        f"{RATIO_METHOD.upper()}'s return from one demo over the same model's zero-shot return "
+        "with the true reward, per task (mean over seeds; 1.0: the demo does what the reward "
+        "does):",
+        "",
+        "| recipe | " + " | ".join(tasks) + " |",
+        "|---|" + "---|" * len(tasks),
+    ]
+    for name, ratio in rows:
+        cells = [f"{ratio[t]:.2f}" if t in ratio else "–" for t in tasks]
+        lines.append(f"| {name} | " + " | ".join(cells) + " |")
     return [*lines, ""]

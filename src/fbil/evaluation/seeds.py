@@ -87,6 +87,10 @@ def seed_entry(
         "zero_shot_mean": mean,
         "scores": {m: float(s["score"]) for m, s in summary.items()},
         "draws": {m: int(s["draws"]) for m, s in summary.items()},
+        "returns": {  # mean return per task (over draws), for ratios to zero-shot
+            m: {t: float(v["return_mean"]) for t, v in s["tasks"].items()}
+            for m, s in summary.items()
+        },
     }
 
 
