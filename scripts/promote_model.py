@@ -14,7 +14,6 @@ Usage: python scripts/promote_model.py SEEDS.json --command "HOW THE MODEL WAS T
 from __future__ import annotations
 
 import argparse
-import csv
 import json
 import shutil
 import sys
@@ -22,6 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from fbil.artifacts import MANIFEST, sha256, write_manifest
+from fbil.csvlog import last_wall_seconds
 from fbil.errors import FbilError
 from fbil.fb.train import git_commit
 
@@ -53,15 +53,6 @@ def find_log(model: Path, given: str | None) -> Path:
         if (folder / LOG).is_file():
             return folder / LOG
     raise FbilError(f"no {LOG} in {model} or the three folders above it; pass --train-log")
-
-
-def _last_wall_seconds(log: Path) -> float | None:
-    with open(log, newline="") as f:
-        rows = list(csv.DictReader(f))
-    try:
-        return float(rows[-1]["wall_seconds"])
-    except (IndexError, KeyError, TypeError, ValueError):
-        return None
 
 
 def _previous(out: Path) -> dict[str, Any] | None:
@@ -125,7 +116,7 @@ def promote(seeds_path: Path, command: str, out: Path | None, log: str | None, n
         shutil.copy2(model / name, stage / name)
     shutil.copy2(train_log, stage / LOG)
     seed = next((e.get("seed") for e in seeds["seeds"] if e["model"] == seeds["chosen"]), None)
-    write_manifest(stage, command, seed, _last_wall_seconds(train_log), git_commit(), extra)
+    write_manifest(stage, command, seed, last_wall_seconds(train_log) or None, git_commit(), extra)
     old = out.parent / f".{out.name}.old"
     shutil.rmtree(old, ignore_errors=True)
     if out.exists():
