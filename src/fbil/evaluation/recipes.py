@@ -18,6 +18,7 @@ import numpy as np
 
 from fbil.errors import FbilError
 from fbil.evaluation.paper import PAPER_SCORES
+from fbil.evaluation.seeds import spread
 from fbil.evaluation.sidecar import find_sidecar
 from fbil.imitation.methods import MAIN_METHODS
 
@@ -25,12 +26,6 @@ RECIPES_FILE = "recipes.json"
 # The method whose return from one demo is set against the model's own zero-shot return
 # (issue #23: ERFB's should reach 80 % of z_r's on each of the zero-shot tasks).
 RATIO_METHOD = "erfb"
-
-
-def _spread(values: Sequence[float]) -> dict[str, float]:
-    v = np.asarray(values, float)
-    std = float(v.std(ddof=1)) if len(v) > 1 else float("nan")
-    return {"mean": float(v.mean()), "std": std, "n": len(v)}
 
 
 def _zero_shot_mean(entry: dict[str, Any], tasks: Sequence[str]) -> float:
@@ -81,9 +76,9 @@ def _summarise(arm: dict[str, Any], methods: Sequence[str], tasks: Sequence[str]
         "ratio_to_zero_shot": {RATIO_METHOD: _ratios(seeds, RATIO_METHOD, tasks)},
         **arm,
         "seeds": [s["seed"] for s in seeds],
-        "zero_shot_mean": _spread([s["zero_shot_mean"] for s in seeds]),
-        "scores": {m: _spread([s["scores"][m] for s in seeds]) for m in methods},
-        "mean_of_methods": _spread(
+        "zero_shot_mean": spread([s["zero_shot_mean"] for s in seeds]),
+        "scores": {m: spread([s["scores"][m] for s in seeds]) for m in methods},
+        "mean_of_methods": spread(
             [float(np.mean([s["scores"][m] for m in methods])) for s in seeds]
         ),
     }

@@ -94,7 +94,8 @@ def seed_entry(
     }
 
 
-def _spread(values: Sequence[float]) -> dict[str, float]:
+def spread(values: Sequence[float]) -> dict[str, float]:
+    """Mean, sample std (NaN for one value), min, max and count over seeds."""
     v = np.asarray(values, float)
     return {
         "mean": float(v.mean()),
@@ -133,8 +134,8 @@ def build_seeds(
         "zero_shot_tasks": list(zero_shot_tasks),
         "chosen": choose(entries, rule),
         "seeds": list(entries),
-        "zero_shot_mean": _spread([e["zero_shot_mean"] for e in entries]),
-        "scores": {m: _spread([e["scores"][m] for e in entries]) for m in methods},
+        "zero_shot_mean": spread([e["zero_shot_mean"] for e in entries]),
+        "scores": {m: spread([e["scores"][m] for e in entries]) for m in methods},
     }
 
 
@@ -227,7 +228,7 @@ def recipe_decision(
         out[name] = {
             "models": [e["model"] for e in arm["seeds"]],
             "measure": measures,
-            **{k: v for k, v in _spread(measures).items() if k in ("mean", "std", "n")},
+            **{k: v for k, v in spread(measures).items() if k in ("mean", "std", "n")},
             "zero_shot_mean": float(np.mean(zs)),
         }
     b, c = out["baseline"], out["candidate"]
