@@ -5,7 +5,8 @@ set -euo pipefail
 # trained on these), then check them against the committed dataset-info.
 #   scripts/regenerate_datasets.sh point_mass_maze   ~45 min of one core: rnd_uniform (408
 #       episodes), rnd_uniform_1000 (--resume to 1 000), rnd_uniform_1000_x4 (doorway
-#       oversampling), random_uniform_200 and the two merges of issue #23's mixed recipe
+#       oversampling), random_uniform_200 and the two merges of issue #23's mixed recipe,
+#       each checked against its committed dataset-info
 #   scripts/regenerate_datasets.sh walker            ~40-45 min: datasets/walker/rnd (1 M)
 # Skips a dataset whose folder is complete. THREADS (1) per job; DRY=1 prints the commands.
 # A dataset that does not match its committed dataset-info is reported and the script goes
@@ -55,6 +56,9 @@ case "$DOMAIN" in
       --starts uniform --out $D/random_uniform_200 --seed 1 --threads "$THREADS"
     have $D/rnd1000_random200 || run fbil dataset-merge $D/rnd_uniform_1000 $D/random_uniform_200 --out $D/rnd1000_random200
     have $D/rnd_x4_random200 || run fbil dataset-merge $D/rnd_uniform_1000_x4 $D/random_uniform_200 --out $D/rnd_x4_random200
+    for n in random_uniform_200 rnd1000_random200 rnd_x4_random200; do
+      check "$n" "$D/$n" "$A/info_$n.json" || FAILED+=("$n")
+    done
     ;;
   walker)
     have datasets/walker/rnd || run fbil collect walker --explorer rnd --episodes 1000 \
