@@ -46,3 +46,21 @@ def test_walker_command_is_the_recorded_collection() -> None:
 def test_a_domain_without_a_recipe_is_refused() -> None:
     out = subprocess.run(["bash", str(SCRIPT), "cheetah"], capture_output=True, text=True)
     assert out.returncode == 2 and "no regeneration recipe" in out.stderr
+
+
+def test_maze_mixed_data_commands_are_the_recorded_ones() -> None:
+    rc, commands = _dry("point_mass_maze")
+    assert rc == 0
+    recorded = [
+        c.strip()
+        for c in re.findall(
+            r"fbil (?:collect|dataset-merge) [^;(]+", _manifest("point_mass_maze")["mixed_command"]
+        )
+    ]
+    assert len(recorded) == 3
+    assert all(c in commands for c in recorded), (recorded, commands)
+    # each is checked against a committed dataset-info
+    names = ("random_uniform_200", "rnd1000_random200", "rnd_x4_random200")
+    assert f"for n in {' '.join(names)}; do" in SCRIPT.read_text()
+    info = ROOT / "artifacts" / "datasets" / "point_mass_maze"
+    assert all((info / f"info_{name}.json").is_file() for name in names)
