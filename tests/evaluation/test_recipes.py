@@ -111,3 +111,23 @@ def test_script_mistakes_are_one_line_errors(
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and message in err[0], err
     assert not out.exists()
+
+
+def test_no_ratio_where_the_model_fails_with_the_true_reward(tmp_path: Path) -> None:
+    """A zero-shot return near 0 would make any ERFB return a huge ratio: none is shown."""
+    runs = []
+    for seed, loop in enumerate([200.0, 10.0]):  # seed 1 fails loop with z_r
+        model = _model(tmp_path, f"c{seed}", seed, {"reach_a": 500.0, "loop": loop})
+        runs.append(f"--run={model}={_results(tmp_path, model, 0.4, 0.6)}")
+    assert model_seeds.main([*runs, "--out", str(tmp_path / "seeds_c.json")]) == 0
+    single = _model(tmp_path, "d0", 3, {"reach_a": 500.0, "loop": 400.0})
+    argv = [f"--arm=C={tmp_path / 'seeds_c.json'}", f"--arm=D={single}@" + str(
+        _results(tmp_path, single, 0.5, 0.5))]  # fmt: skip
+    out = tmp_path / "r.json"
+    assert recipes_table.main([*argv, "--zero-shot-tasks", "loop", "--out", str(out)]) == 0
+    c, d = json.loads(out.read_text())["arms"]
+    assert c["ratio_to_zero_shot"]["erfb"] == {"loop": None}
+    assert d["ratio_to_zero_shot"]["erfb"] == {"loop": pytest.approx(0.25)}  # 100 / 400
+    text = "\n".join(recipes_section(json.loads(out.read_text())))
+    assert "| C | z_r < 50 |" in text and "| D | 0.25 |" in text
+    assert "fails the task with the true reward" in text

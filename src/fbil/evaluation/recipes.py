@@ -26,6 +26,9 @@ RECIPES_FILE = "recipes.json"
 # The method whose return from one demo is set against the model's own zero-shot return
 # (issue #23: ERFB's should reach 80 % of z_r's on each of the zero-shot tasks).
 RATIO_METHOD = "erfb"
+# Below this zero-shot return (5 % of the 1 000 an episode can earn) the model fails the task
+# with the true reward itself, and a ratio to that return says nothing: it is left out (null).
+ZERO_SHOT_FLOOR = 50.0
 
 
 def _zero_shot_mean(entry: dict[str, Any], tasks: Sequence[str]) -> float:
@@ -61,12 +64,15 @@ def build_arm(
 
 def _ratios(seeds: Sequence[dict[str, Any]], method: str, tasks: Sequence[str]) -> dict:
     """Per task, the mean over seeds of `method`'s return from the demos over the same
-    model's zero-shot return (the true reward's z); {} where a seed lacks either."""
-    out = {}
+    model's zero-shot return (the true reward's z); absent where a seed lacks either, None
+    where a seed's zero-shot return is below ZERO_SHOT_FLOOR."""
+    out: dict[str, float | None] = {}
     for t in tasks:
         pairs = [(s["returns"].get(method, {}).get(t), s["zero_shot"].get(t)) for s in seeds]
-        if pairs and all(r is not None and z for r, z in pairs):
-            out[t] = float(np.mean([r / z for r, z in pairs]))
+        if not pairs or any(r is None or z is None for r, z in pairs):
+            continue
+        low = any(z < ZERO_SHOT_FLOOR for _, z in pairs)
+        out[t] = None if low else float(np.mean([r / z for r, z in pairs]))
     return out
 
 
@@ -166,6 +172,17 @@ def _ratio_table(recipes: dict[str, Any]) -> list[str]:
         "|---|" + "---|" * len(tasks),
     ]
     for name, ratio in rows:
-        cells = [f"{ratio[t]:.2f}" if t in ratio else "–" for t in tasks]
+        cells = [_ratio_cell(ratio, t) for t in tasks]
         lines.append(f"| {name} | " + " | ".join(cells) + " |")
+    if any(v is None for _, r in rows for v in r.values()):
+        lines += ["", f"z_r < {ZERO_SHOT_FLOOR:.0f}: on at least one seed the model's own "
+                  "zero-shot return is below that, so it fails the task with the true reward "
+                  "and no ratio is shown."]  # fmt: skip
     return [*lines, ""]
+
+
+def _ratio_cell(ratio: dict[str, float | None], task: str) -> str:
+    if task not in ratio:
+        return "–"
+    value = ratio[task]
+    return f"z_r < {ZERO_SHOT_FLOOR:.0f}" if value is None else f"{value:.2f}"
