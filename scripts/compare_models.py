@@ -1,7 +1,10 @@
 """Side by side: several FB models (recipes, fine-tunes, checkpoints) on the same grid.
 
 Each `--run NAME=RESULTS[,ZERO_SHOT]` names the results file of `fbil benchmark --model M ...`
-for one model and, optionally, the `--json` output of `fbil zero-shot M ...`. Prints, per
+for one model and, optionally, the `--json` output of `fbil zero-shot M ...`. Several models
+of one recipe (seeds) join with `+` on both sides (`a.jsonl+b.jsonl,a_zs.json+b_zs.json`):
+their lines are pooled, so with the same grid each the score is the mean over seeds, and the
+zero-shot return of each task is the mean over the files. Prints, per
 model, the mean imitation score (%) of each method and of all methods, the zero-shot
 returns, and the mean return per task of the methods in --per-task; writes them with --out.
 Lines are kept only for the demo draws in --draws, the tasks in --tasks and the methods in
@@ -24,6 +27,7 @@ the snapshot that is the committed model, --note adds a sentence.
 from __future__ import annotations
 
 import argparse
+import gzip
 import json
 import shlex
 import statistics
@@ -37,7 +41,7 @@ from fbil.evaluation.training_curve import curve_points, plot_training_curve
 
 
 def summarise(
-    results: Path,
+    results: Path | list[Path],
     draws: set[int] | None,
     per_task: list[str],
     tasks: set[str] | None = None,
@@ -45,19 +49,24 @@ def summarise(
 ) -> dict[str, Any]:
     """Mean score (%) per method and overall, mean return per (method in per_task, task), over
     the lines of the chosen draws, tasks and methods (None: all)."""
-    try:
-        rows = [json.loads(line) for line in results.read_text().splitlines() if line.strip()]
-    except (OSError, json.JSONDecodeError) as exc:
-        raise FbilError(f"{results}: cannot read results lines ({exc})") from None
-    rows = [
-        r
-        for r in rows
-        if (draws is None or r["draw"] in draws)
-        and (tasks is None or r["task"] in tasks)
-        and (methods is None or r["method"] in methods)
+    files = results if isinstance(results, list) else [results]
+    kept = [
+        [
+            r
+            for r in _read_lines(path)
+            if (draws is None or r["draw"] in draws)
+            and (tasks is None or r["task"] in tasks)
+            and (methods is None or r["method"] in methods)
+        ]
+        for path in files
     ]
+    names = "+".join(str(f) for f in files)
+    if len({len(k) for k in kept}) > 1:  # pooled lines average the seeds only if equal in number
+        sizes = ", ".join(str(len(k)) for k in kept)
+        raise FbilError(f"{names}: the pooled files keep {sizes} lines; give each the same grid")
+    rows = [r for k in kept for r in k]
     if not rows:
-        raise FbilError(f"{results}: no results lines for the chosen draws, tasks and methods")
+        raise FbilError(f"{names}: no results lines for the chosen draws, tasks and methods")
     methods = sorted({r["method"] for r in rows})
     score = {
         m: 100 * statistics.mean(r["score"] for r in rows if r["method"] == m) for m in methods
@@ -75,6 +84,33 @@ def summarise(
         if m in methods
     }
     return {"jobs": len(rows), "score_pct": score, "returns": returns}
+
+
+def _read_lines(path: Path) -> list[dict[str, Any]]:
+    """The results lines of a .jsonl file, or of a gzipped one (.jsonl.gz, as committed)."""
+    try:
+        text = gzip.decompress(path.read_bytes()).decode() if path.suffix == ".gz" else None
+        text = path.read_text() if text is None else text
+        return [json.loads(line) for line in text.splitlines() if line.strip()]
+    except (OSError, EOFError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise FbilError(f"{path}: cannot read results lines ({exc})") from None
+
+
+def zero_shot_mean(files: list[Path]) -> dict[str, float]:
+    """Per task, the mean over the `fbil zero-shot --json` files of their mean return; the
+    files must cover the same tasks."""
+    per_file = []
+    for path in files:
+        try:
+            zs = json.loads(path.read_text())
+            per_file.append({t: float(v["return_mean"]) for t, v in zs["tasks"].items()})
+        except (OSError, ValueError, KeyError, TypeError, AttributeError) as exc:
+            raise FbilError(f"{path}: not a `fbil zero-shot --json` output ({exc})") from None
+    if any(set(f) != set(per_file[0]) for f in per_file):
+        raise FbilError(
+            "the zero-shot files of one --run cover different tasks; use the same --tasks"
+        )
+    return {t: statistics.mean(f[t] for f in per_file) for t in per_file[0]}
 
 
 def print_table(title: str, columns: dict[str, dict[str, float]]) -> None:
@@ -135,10 +171,10 @@ def main(argv: list[str] | None = None) -> int:
             if not sep or not name or not files:
                 raise FbilError(f"--run {run!r}: give NAME=RESULTS[,ZERO_SHOT]")
             results, _, zero_shot = files.partition(",")
-            entry = summarise(Path(results), draws, per_task, tasks, methods)
+            paths = [Path(f) for f in results.split("+")]
+            entry = summarise(paths, draws, per_task, tasks, methods)
             if zero_shot:
-                zs = json.loads(Path(zero_shot).read_text())
-                entry["zero_shot"] = {t: v["return_mean"] for t, v in zs["tasks"].items()}
+                entry["zero_shot"] = zero_shot_mean([Path(f) for f in zero_shot.split("+")])
             out[name] = entry
         if args.plot:
             plot_training_curve(out, Path(args.plot))

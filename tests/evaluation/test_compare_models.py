@@ -1,12 +1,16 @@
 """`scripts/compare_models.py`: per-method mean scores over the kept draws, zero-shot returns
-read from `fbil zero-shot --json`, and a one-line error (exit 2) for a missing file."""
+read from `fbil zero-shot --json`, several seeds pooled into one curve point (scores the mean
+over seeds, zero-shot returns averaged per task), and a one-line error (exit 2) for a missing
+file."""
 
 from __future__ import annotations
 
+import gzip
 import json
 import subprocess
 import sys
 from pathlib import Path
+from types import ModuleType
 
 import pytest
 
@@ -146,3 +150,105 @@ def test_the_report_shows_a_training_curve_next_to_its_results(tmp_path: Path) -
     curve.write_text("{not json")
     with pytest.raises(FbilError, match=r"training_curve\.json is not valid JSON"):
         write_report(results, tmp_path / "report_bad")
+
+
+def _compare() -> ModuleType:
+    from tests.script_module import load_script
+
+    return load_script("compare_models")
+
+
+def _results(path: Path, model: str, scores: dict[str, float]) -> str:
+    rows = [
+        {
+            "model": model,
+            "domain": "point_mass_maze",
+            "task": "loop",
+            "method": m,
+            "draw": d,
+            "score": s + 0.1 * d,
+            "return_mean": 1000 * s,
+        }
+        for m, s in scores.items()
+        for d in (0, 1)
+    ]
+    path.write_text("".join(json.dumps(r) + "\n" for r in rows))
+    return str(path)
+
+
+def _zero_shot(path: Path, returns: dict[str, float]) -> str:
+    path.write_text(json.dumps({"tasks": {t: {"return_mean": v} for t, v in returns.items()}}))
+    return str(path)
+
+
+def test_seeds_pool_into_one_curve_point(tmp_path: Path) -> None:
+    a = _results(tmp_path / "a.jsonl", "A", {"erfb": 0.2, "goalfb": 0.6})
+    b = _results(tmp_path / "b.jsonl", "B", {"erfb": 0.4, "goalfb": 0.2})
+    za = _zero_shot(tmp_path / "za.json", {"loop": 100.0, "square": 300.0})
+    zb = _zero_shot(tmp_path / "zb.json", {"loop": 300.0, "square": 500.0})
+    single = _results(tmp_path / "c.jsonl", "C", {"erfb": 0.1, "goalfb": 0.1})
+    curve = tmp_path / "training_curve.json"
+    code = _compare().main(
+        [
+            "--run",
+            f"200={a}+{b},{za}+{zb}",
+            "--run",
+            f"100={single}",
+            "--per-task",
+            "",
+            "--curve",
+            str(curve),
+            "--domain",
+            "point_mass_maze",
+            "--committed",
+            "200",
+        ]
+    )
+    assert code == 0
+    runs = json.loads(curve.read_text())["runs"]
+    pooled = runs["200"]
+    assert pooled["jobs"] == 8
+    # Each seed's draws average to s + 0.05; the seeds' mean is then taken per method.
+    assert pooled["score_pct"]["erfb"] == pytest.approx(100 * (0.3 + 0.05))
+    assert pooled["score_pct"]["goalfb"] == pytest.approx(100 * (0.4 + 0.05))
+    assert pooled["score_pct"]["mean"] == pytest.approx(100 * (0.35 + 0.05))
+    assert pooled["zero_shot"] == {"loop": 200.0, "square": 400.0}
+    assert "zero_shot" not in runs["100"]
+
+
+def test_zero_shot_files_of_different_tasks_are_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    a = _results(tmp_path / "a.jsonl", "A", {"erfb": 0.2})
+    za = _zero_shot(tmp_path / "za.json", {"loop": 100.0})
+    zb = _zero_shot(tmp_path / "zb.json", {"square": 300.0})
+    assert _compare().main(["--run", f"1={a}+{a},{za}+{zb}"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "different tasks" in err[0]
+
+
+def test_a_missing_results_file_is_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    a = _results(tmp_path / "a.jsonl", "A", {"erfb": 0.2})
+    assert _compare().main(["--run", f"1={a}+{tmp_path / 'missing.jsonl'}"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "missing.jsonl" in err[0]
+
+
+def test_pooled_files_of_different_grids_are_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    a = _results(tmp_path / "a.jsonl", "A", {"erfb": 0.2, "goalfb": 0.6})
+    b = _results(tmp_path / "b.jsonl", "B", {"erfb": 0.4})
+    assert _compare().main(["--run", f"1={a}+{b}"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "4, 2 lines" in err[0]
+
+
+def test_gzipped_results_read_as_plain(tmp_path: Path) -> None:
+    plain = _results(tmp_path / "a.jsonl", "A", {"erfb": 0.2, "goalfb": 0.6})
+    packed = tmp_path / "a.jsonl.gz"
+    packed.write_bytes(gzip.compress(Path(plain).read_bytes()))
+    cmp = _compare()
+    assert cmp.summarise([packed], None, []) == cmp.summarise([Path(plain)], None, [])
