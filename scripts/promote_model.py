@@ -20,7 +20,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from fbil.artifacts import MANIFEST, sha256, write_manifest
+from fbil.artifacts import COMMAND_PREFIXES, MANIFEST, sha256, write_manifest
 from fbil.csvlog import last_wall_seconds
 from fbil.errors import FbilError
 from fbil.fb.train import git_commit
@@ -106,6 +106,11 @@ def promote(seeds_path: Path, command: str, out: Path | None, log: str | None, n
     trained_on = FBModel.load(model).domain  # names and shapes checked before any write
     if trained_on and trained_on != seeds["domain"]:
         raise FbilError(f"{model} was trained on {trained_on}, not {seeds['domain']}")
+    if not command.startswith(COMMAND_PREFIXES):
+        starts = ", ".join(repr(c.strip()) for c in COMMAND_PREFIXES)
+        raise FbilError(
+            f"--command must start with {starts} (a command to paste), got {command[:40]!r}"
+        )
     out = out or Path("artifacts/models") / seeds["domain"]
     train_log = find_log(model, log)
     extra = manifest_extra(seeds_path, seeds, model, out) | notes

@@ -67,7 +67,7 @@ def test_the_chosen_seed_replaces_the_default_with_a_manifest(
     old = {"git_commit": "abc1234", "command": "old recipe", "sha256": {"model.safetensors": "f0"}}
     (out / "manifest.json").write_text(json.dumps(old))
     seeds = _seeds(tmp_path, runs[1], runs, "point_mass_maze")
-    res = _run(seeds, "--command", "train it so", "--out", out, "--note", "why=a test")
+    res = _run(seeds, "--command", "fbil pretrain it so", "--out", out, "--note", "why=a test")
     assert res.returncode == 0, res.stderr
     verify(out)  # every file's sha256 as recorded
     assert sorted(p.name for p in out.iterdir()) == [
@@ -75,7 +75,7 @@ def test_the_chosen_seed_replaces_the_default_with_a_manifest(
     ]  # fmt: skip
     assert (out / "model.safetensors").read_bytes() == (runs[1] / "model.safetensors").read_bytes()
     manifest = json.loads((out / "manifest.json").read_text())
-    assert manifest["command"] == "train it so" and manifest["seed"] == 1
+    assert manifest["command"] == "fbil pretrain it so" and manifest["seed"] == 1
     assert manifest["wall_seconds"] == 21.25  # the run's log, found above the snapshot
     assert manifest["previous_model"]["git_commit"] == "abc1234"
     assert manifest["previous_model"]["model_sha256"] == "f0"
@@ -100,8 +100,12 @@ def test_bad_input_leaves_the_default_untouched(runs: list[Path], tmp_path: Path
         (_seeds(tmp_path, corrupt, [*runs, corrupt], "point_mass_maze"), "corrupt weights"),
     ]
     for seeds, message in cases:
-        res = _run(seeds, "--command", "x", "--out", out)
+        res = _run(seeds, "--command", "fbil pretrain x", "--out", out)
         assert res.returncode == 2 and message in res.stderr, res.stderr
         assert len(res.stderr.strip().splitlines()) == 1
+    res = _run(
+        _seeds(tmp_path, runs[1], runs, "point_mass_maze"), "--command", "SETS=1 x", "--out", out
+    )
+    assert res.returncode == 2 and "--command must start with" in res.stderr, res.stderr
     assert (out / "model.safetensors").read_bytes() == b"old weights"
     assert sorted(p.name for p in out.iterdir()) == ["model.safetensors"]

@@ -18,6 +18,9 @@ from fbil.checkpoint import atomic_write_text
 from fbil.errors import FbilError
 
 MANIFEST = "manifest.json"
+# A committed manifest's command starts with one of these, so a reader can paste it into a
+# shell at the repository's root (an environment variable or prose goes inside, after it).
+COMMAND_PREFIXES = ("fbil ", "scripts/", "python ")
 
 
 def sha256(path: str | Path) -> str:
