@@ -216,34 +216,30 @@ def test_seeds_pool_into_one_curve_point(tmp_path: Path) -> None:
     assert "zero_shot" not in runs["100"]
 
 
-def test_zero_shot_files_of_different_tasks_are_refused(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str]
-) -> None:
-    a = _results(tmp_path / "a.jsonl", "A", {"erfb": 0.2})
-    za = _zero_shot(tmp_path / "za.json", {"loop": 100.0})
-    zb = _zero_shot(tmp_path / "zb.json", {"square": 300.0})
-    assert _compare().main(["--run", f"1={a}+{a},{za}+{zb}"]) == 2
-    err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "different tasks" in err[0]
-
-
-def test_a_missing_results_file_is_one_line(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str]
-) -> None:
-    a = _results(tmp_path / "a.jsonl", "A", {"erfb": 0.2})
-    assert _compare().main(["--run", f"1={a}+{tmp_path / 'missing.jsonl'}"]) == 2
-    err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "missing.jsonl" in err[0]
-
-
-def test_pooled_files_of_different_grids_are_refused(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str]
-) -> None:
+def _pool_case(tmp_path: Path, case: str) -> str:
+    """The --run value of one bad pool: zero-shot files of different tasks, a missing
+    results file, or results files of different grids."""
     a = _results(tmp_path / "a.jsonl", "A", {"erfb": 0.2, "goalfb": 0.6})
+    if case == "tasks":
+        za = _zero_shot(tmp_path / "za.json", {"loop": 100.0})
+        zb = _zero_shot(tmp_path / "zb.json", {"square": 300.0})
+        return f"1={a}+{a},{za}+{zb}"
+    if case == "missing":
+        return f"1={a}+{tmp_path / 'missing.jsonl'}"
     b = _results(tmp_path / "b.jsonl", "B", {"erfb": 0.4})
-    assert _compare().main(["--run", f"1={a}+{b}"]) == 2
+    return f"1={a}+{b}"
+
+
+@pytest.mark.parametrize(
+    ("case", "message"),
+    [("tasks", "different tasks"), ("missing", "missing.jsonl"), ("grids", "4, 2 lines")],
+)
+def test_a_bad_pool_is_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], case: str, message: str
+) -> None:
+    assert _compare().main(["--run", _pool_case(tmp_path, case)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "4, 2 lines" in err[0]
+    assert len(err) == 1 and message in err[0]
 
 
 def test_gzipped_results_read_as_plain(tmp_path: Path) -> None:
