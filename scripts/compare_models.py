@@ -89,8 +89,10 @@ def summarise(
 def _read_lines(path: Path) -> list[dict[str, Any]]:
     """The results lines of a .jsonl file, or of a gzipped one (.jsonl.gz, as committed)."""
     try:
-        text = gzip.decompress(path.read_bytes()).decode() if path.suffix == ".gz" else None
-        text = path.read_text() if text is None else text
+        if path.suffix == ".gz":
+            text = gzip.decompress(path.read_bytes()).decode()
+        else:
+            text = path.read_text()
         return [json.loads(line) for line in text.splitlines() if line.strip()]
     except (OSError, EOFError, UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise FbilError(f"{path}: cannot read results lines ({exc})") from None
