@@ -74,22 +74,37 @@ def test_locomotion_keeps_frames_and_draws_strips(tmp_path: Path) -> None:
     pictures = get_domain("walker").hooks.pictures
     assert pictures is not None
     ran = BatchedEnv("walker", "walk", 1).rollout(RandomPolicy(6, 0), [0], steps=50)
-    kept = pictures.keep(ran.observation[0])
-    assert np.shape(kept) == (6, 24)
+    kept = pictures.keep(ran.observation[0], ran.physics[0])
+    assert np.shape(kept) == (6, 24)  # observations: walker's physics is rebuilt from them
     rollouts = {"erfb": np.asarray(kept)}
     out = pictures.imitation(
         ImitationPicture(ran.observation[0], ran.physics[0], rollouts, tmp_path / "w.png", "walk")
     )
     assert out is not None and out.read_bytes()[:4] == b"\x89PNG"
-    quadruped = get_domain("quadruped").hooks.pictures
-    assert quadruped is not None and quadruped.keep(np.zeros((11, 78))) is None
+
+
+def test_quadruped_keeps_physics_states_for_its_strips(tmp_path: Path) -> None:
+    """Quadruped's egocentric observation does not say where the body is: its benchmark
+    rows keep physics states, and the strips draw them."""
+    spec = get_domain("quadruped")
+    pictures = spec.hooks.pictures
+    assert pictures is not None and pictures.keep(np.zeros((11, 78)), None) is None
+    ran = BatchedEnv("quadruped", "stand", 1).rollout(RandomPolicy(12, 0), [0], steps=50)
+    kept = pictures.keep(ran.observation[0], ran.physics[0])
+    assert np.shape(kept) == (6, spec.physics_dim)
+    np.testing.assert_allclose(kept[0], ran.physics[0, 0], atol=1e-5)
+    picture = ImitationPicture(
+        ran.observation[0], ran.physics[0], {"erfb": np.asarray(kept)}, tmp_path / "q.png", "stand"
+    )
+    out = pictures.imitation(picture)
+    assert out is not None and out.read_bytes()[:4] == b"\x89PNG"
 
 
 def test_maze_keeps_its_path_and_draws_only_images(tmp_path: Path) -> None:
     pictures = get_domain("point_mass_maze").hooks.pictures
     assert pictures is not None
     obs = np.random.default_rng(0).uniform(-0.2, 0.2, (11, 4))
-    assert pictures.keep(obs) == obs[::2, :2].round(3).tolist()
+    assert pictures.keep(obs, None) == obs[::2, :2].round(3).tolist()
     policy = RandomPolicy(2, 0)
     gif = RenderRequest("loop", policy, 0, 1, 10, 3, tmp_path / "m.gif")
     with pytest.raises(FbilError, match="maze pictures are images"):

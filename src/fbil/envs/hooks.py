@@ -108,9 +108,10 @@ class Pictures:
     # Draws the request; returns the returns of the episodes drawn (empty where the
     # picture shows no return).
     render: Callable[[RenderRequest], list[float]]
-    # Observations (T+1, obs_dim) of an evaluation episode -> what a benchmark row keeps
-    # of it for the report's picture (JSON-ready, small), or None to keep nothing.
-    keep: Callable[[np.ndarray], list[Any] | None]
+    # Observations (T+1, obs_dim) and, where recorded, physics states (T+1, physics_dim)
+    # of an evaluation episode -> what a benchmark row keeps of it for the report's
+    # picture (JSON-ready, small), or None to keep nothing.
+    keep: Callable[[np.ndarray, np.ndarray | None], list[Any] | None]
     imitation: Callable[[ImitationPicture], Path | None]  # None: nothing to draw
     imitation_heading: str  # the report's heading over those pictures
 

@@ -264,12 +264,18 @@ class Locomotion:
         save_frames(frames, request.out)
         return []
 
-    def keep_frames(self, observation: np.ndarray) -> list[Any] | None:
-        """KEEP_FRAMES evenly spaced observations (None: this domain cannot draw them)."""
-        if self.physics_from_observation is None:
+    def keep_frames(
+        self, observation: np.ndarray, physics: np.ndarray | None = None
+    ) -> list[Any] | None:
+        """KEEP_FRAMES evenly spaced states: observations where the domain recovers the
+        physics from them (walker, cheetah), else physics states (quadruped, whose
+        egocentric observation does not say where the body is); None: neither."""
+        picks = _picks(len(observation))
+        if self.physics_from_observation is not None:
+            return np.asarray(observation)[picks].round(5).tolist()
+        if physics is None:
             return None
-        obs = np.asarray(observation)
-        return obs[_picks(len(obs))].round(5).tolist()
+        return np.asarray(physics)[picks].round(5).tolist()
 
     def imitation_strips(self, picture: ImitationPicture) -> Path | None:
         """Rows of frames: the demonstration, then each method's kept rollout."""
@@ -284,9 +290,10 @@ class Locomotion:
         else:
             return None
         strips = {"demonstration": demo}
-        if to_physics is not None:
-            kept = picture.rollouts.items()
-            strips.update({m: to_physics(np.asarray(o, np.float64)) for m, o in kept})
+        as_physics = to_physics or np.asarray  # without it, keep_frames kept physics states
+        strips.update(
+            {m: as_physics(np.asarray(o, np.float64)) for m, o in picture.rollouts.items()}
+        )
         titles = picture.titles or {}
         fig, axes = _pyplot().subplots(
             len(strips), KEEP_FRAMES, figsize=(1.6 * KEEP_FRAMES, 1.3 * len(strips)), dpi=110

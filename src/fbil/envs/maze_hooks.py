@@ -207,8 +207,8 @@ def render_paths(request: RenderRequest) -> list[float]:
     return [float(r) for r in ran.returns]
 
 
-def keep_path(observation: np.ndarray) -> list[Any]:
-    """The x-y path, every 2nd step, to 3 decimals."""
+def keep_path(observation: np.ndarray, physics: np.ndarray | None = None) -> list[Any]:
+    """The x-y path, every 2nd step, to 3 decimals (the observation holds it)."""
     return np.asarray(observation)[::2, :2].round(3).tolist()
 
 

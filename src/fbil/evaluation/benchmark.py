@@ -290,7 +290,9 @@ def _add_result(row: dict[str, Any], job: Job, r: Any) -> None:
         seconds=r.seconds,
     )
     pictures = get_domain(job.domain).hooks.pictures
-    kept = pictures.keep(r.trajectory) if pictures is not None and job.draw == 0 else None
+    kept = None
+    if pictures is not None and job.draw == 0:
+        kept = pictures.keep(r.trajectory, r.physics)
     if kept is not None:
         # What the domain's report picture needs of the first evaluation episode, per
         # (task, method): the maze's x-y path (every 2nd step), locomotion's frames.

@@ -114,6 +114,7 @@ class MethodResult:
     returns: list[float]
     trajectory: np.ndarray  # observations of the first evaluation episode (T+1, obs_dim)
     family: str = "fb-il"
+    physics: np.ndarray | None = None  # its physics states (T+1, physics_dim)
 
     def as_dict(self) -> dict[str, Any]:
         return {
@@ -204,6 +205,7 @@ def evaluate(
                 [float(x) for x in r],
                 ep.observation[i * episodes],
                 family_of(f.name),
+                ep.physics[i * episodes],
             )
     return {
         "domain": domain,
