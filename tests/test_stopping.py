@@ -102,13 +102,19 @@ def test_a_stopped_expert_keeps_its_step_and_its_replay_buffer(
 
 
 def test_a_second_signal_acts_at_once() -> None:
-    with StopSignals() as stop:
-        signal.raise_signal(signal.SIGINT)
-        assert stop and stop.signum == signal.SIGINT
-        with pytest.raises(KeyboardInterrupt):  # the handler from before: Python's default
+    # Python's own Ctrl-C handler first: a shell's background job (`cmd &`) starts with
+    # SIGINT ignored, and the second signal then goes to that ignore, as it should.
+    outer = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        with StopSignals() as stop:
             signal.raise_signal(signal.SIGINT)
-            time.sleep(0.1)
-    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+            assert stop and stop.signum == signal.SIGINT
+            with pytest.raises(KeyboardInterrupt):  # the handler from before
+                signal.raise_signal(signal.SIGINT)
+                time.sleep(0.1)
+        assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    finally:
+        signal.signal(signal.SIGINT, outer)
 
 
 def test_ctrl_c_on_the_command_line_says_where_it_stopped(
