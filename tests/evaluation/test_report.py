@@ -222,7 +222,7 @@ def test_a_method_has_one_budget_per_domain_and_may_have_another_elsewhere(
     text = write_report([maze, walker], tmp_path / "report").read_text()
     assert "| td3il | offline-il | 13.3 min (cpu) | 25.8 min (cpu@5) | 7h3m |" in text
     assert "| sqil | offline-il | 17.5 min | – |" in text  # one domain: no budget named
-    other = [dict(walker_rows[0], draw=1, budget="cpu")]
+    other = [dict(walker_rows[0], draw=2, budget="cpu")]
     with pytest.raises(FbilError, match="several budgets of td3il"):
         write_report([maze, walker, _write(tmp_path / "w2.jsonl", other)], tmp_path / "r2")
     assert not (tmp_path / "r2").exists()
