@@ -1,14 +1,17 @@
 """Add one baseline's finished grid (the lines of one or more `fbil benchmark --out` files)
 to a committed results file, after checking that it is one grid: one method, one domain,
 one budget, one data sample (`data_digest`), and every (task, draw) of the domain's tasks
-exactly once. Lines the results file already holds for that method are moved to
-`--replaced-to` (refused without it), so a rerun replaces a grid rather than mixing two.
-Both files are written whole or not at all.
+exactly once, at one training seed. Lines the results file already holds for that method
+are moved to `--replaced-to` (refused without it), so a rerun replaces a grid rather than
+mixing two; with `--add-seed`, only the method's lines of the grid's own seed are, and its
+lines of other seeds stay (they must have the grid's budget and data sample): a grid run
+again with `fbil benchmark --seed`, which `fbil report` averages per draw. Both files are
+written whole or not at all.
 
 Usage: python scripts/add_grid.py RESULTS GRID.jsonl [GRID.jsonl ...] [--replaced-to PATH]
-       [--draws N]
-Prints the grid's mean score over its draws (task-averaged per draw), the spread between
-the draws' means and the median time to policy.
+       [--draws N] [--add-seed]
+Prints the grid's mean score over its draws (task-averaged per draw), the draws' means and
+the median time to policy; with --add-seed, also the method's score over all its seeds.
 """
 
 from __future__ import annotations
@@ -52,6 +55,7 @@ def check_grid(rows: list[dict[str, Any]], draws: int | None) -> dict[str, Any]:
     budget, digest = one(rows, "budget"), one(rows, "data_digest")
     one(rows, "k")
     one(rows, "demo_set")
+    seed = int(one(rows, "seed") or 0)
     if digest is None:
         raise FbilError("the grid's lines record no data_digest: rerun them with this fbil")
     n_draws = draws if draws is not None else 1 + max(int(r["draw"]) for r in rows)
@@ -73,14 +77,23 @@ def check_grid(rows: list[dict[str, Any]], draws: int | None) -> dict[str, Any]:
         "budget": budget,
         "digest": digest,
         "draws": n_draws,
+        "seed": seed,
     }
 
 
-def summary(rows: list[dict[str, Any]], draws: int) -> str:
-    per_draw: dict[int, list[float]] = defaultdict(list)
+def draw_means(rows: list[dict[str, Any]], draws: int) -> list[float]:
+    """Per draw, the task-averaged score (%), averaged over the seeds that ran the draw."""
+    per_run: dict[tuple[int, int], list[float]] = defaultdict(list)
     for r in rows:
-        per_draw[int(r["draw"])].append(100 * float(r["score"]))
-    means = [statistics.fmean(per_draw[d]) for d in range(draws)]
+        per_run[(int(r["draw"]), int(r.get("seed") or 0))].append(100 * float(r["score"]))
+    return [
+        statistics.fmean(statistics.fmean(v) for (d, _), v in per_run.items() if d == draw)
+        for draw in range(draws)
+    ]
+
+
+def summary(rows: list[dict[str, Any]], draws: int) -> str:
+    means = draw_means(rows, draws)
     seconds = statistics.median(float(r["seconds"]) for r in rows)
     each = ", ".join(f"{m:.1f}" for m in means)
     return (
@@ -94,32 +107,56 @@ def add_grid(
     grids: list[Path],
     replaced_to: Path | None,
     draws: int | None = None,
+    add_seed: bool = False,
 ) -> str:
-    """Check the grid, write RESULTS with it (and REPLACED_TO with the method's old lines);
-    the one-line summary."""
+    """Check the grid, write RESULTS with it (and REPLACED_TO with the method's old lines
+    it replaces: all of them, or with `add_seed` those of the grid's seed); the one-line
+    summary."""
     rows = [r for g in grids for r in read_lines(g)]
     grid = check_grid(rows, draws)
     old = read_lines(results) if results.exists() else []
     if old and {r.get("domain") for r in old} != {grid["domain"]}:
         raise FbilError(f"{results} holds results of another domain than {grid['domain']}")
-    kept = [r for r in old if r.get("method") != grid["method"]]
-    moved = [r for r in old if r.get("method") == grid["method"]]
+    mine = [r for r in old if r.get("method") == grid["method"]]
+    moved = [r for r in mine if not add_seed or int(r.get("seed") or 0) == grid["seed"]]
+    gone = {id(r) for r in moved}
+    seeds = [r for r in mine if id(r) not in gone]
+    if seeds:
+        check_same_grid(seeds, grid)
     if moved and replaced_to is None:
         raise FbilError(
-            f"{results} already holds {len(moved)} {grid['method']} lines; pass --replaced-to "
-            "PATH to move them there"
+            f"{results} already holds {len(moved)} {grid['method']} lines"
+            + (f" of seed {grid['seed']}" if add_seed else "")
+            + "; pass --replaced-to PATH to move them there"
         )
     if moved and replaced_to is not None:
         if replaced_to.exists():
             raise FbilError(f"{replaced_to} exists; name a new file for the replaced lines")
         atomic_write_text(replaced_to, "".join(json.dumps(r) + "\n" for r in moved))
+    kept = [r for r in old if id(r) not in gone]
     atomic_write_text(results, "".join(json.dumps(r) + "\n" for r in kept + rows))
     head = (
         f"{grid['method']} on {grid['domain']}: {len(rows)} lines, budget {grid['budget']}, "
-        f"data {grid['digest']}"
+        f"data {grid['digest']}, seed {grid['seed']}"
     )
     tail = f"; {len(moved)} old lines moved to {replaced_to}" if moved else ""
+    if seeds:
+        every = seeds + rows
+        n = sorted({int(r.get("seed") or 0) for r in every})
+        tail += f"; over seeds {', '.join(map(str, n))}: {summary(every, grid['draws'])}"
     return f"{head}; {summary(rows, grid['draws'])}{tail}"
+
+
+def check_same_grid(others: list[dict[str, Any]], grid: dict[str, Any]) -> None:
+    """The method's lines of other seeds must be a grid of the same budget and data."""
+    for field, key in (("budget", "budget"), ("data_digest", "digest")):
+        found = sorted({str(r.get(field)) for r in others} - {str(grid[key])})
+        if found:
+            raise FbilError(
+                f"--add-seed: the results' other {grid['method']} seeds have {field} "
+                f"{', '.join(found)}, the grid {grid[key]}; add a seed only to a grid of the "
+                "same budget and data (or replace the grid without --add-seed)"
+            )
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -128,9 +165,14 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("grids", type=Path, nargs="+")
     p.add_argument("--replaced-to", type=Path, default=None)
     p.add_argument("--draws", type=int, default=None, help="default: the grid's highest + 1")
+    p.add_argument(
+        "--add-seed",
+        action="store_true",
+        help="keep the method's lines of other seeds (same budget and data): a second seed",
+    )
     args = p.parse_args(argv)
     try:
-        print(add_grid(args.results, args.grids, args.replaced_to, args.draws))
+        print(add_grid(args.results, args.grids, args.replaced_to, args.draws, args.add_seed))
     except FbilError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2

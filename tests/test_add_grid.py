@@ -93,3 +93,39 @@ def test_old_lines_of_the_method_need_a_place_to_go(
     taken = _write(tmp_path / "taken.jsonl", [])
     assert add_grid.main([str(results), str(grid), "--replaced-to", str(taken)]) == 2
     assert results.read_text() == before
+
+
+def test_a_second_seed_is_added_beside_the_first_and_scored_with_it(tmp_path: Path) -> None:
+    first = _grid(seed=0)
+    results = _write(tmp_path / "baselines.jsonl", [_line("bc", "loop", 0), *first])
+    second = [{**r, "seed": 1, "score": r["score"] + 0.1} for r in first]
+    out = add_grid.add_grid(results, [_write(tmp_path / "s1.jsonl", second)], None, add_seed=True)
+    after = [json.loads(t) for t in results.read_text().splitlines()]
+    assert after == [_line("bc", "loop", 0), *first, *second]  # nothing moved, nothing lost
+    # seed 1's own draw means 35 % and 85 %; over both seeds 30 % and 80 %, mean 55 %
+    assert "seed 1; score 60.0 % (draw means 35.0, 85.0)" in out
+    assert "over seeds 0, 1: score 55.0 % (draw means 30.0, 80.0)" in out
+
+
+def test_a_second_seed_replaces_only_its_own_seed_and_needs_the_same_grid(
+    tmp_path: Path,
+) -> None:
+    results = _write(tmp_path / "baselines.jsonl", [*_grid(seed=0), *_grid(seed=1)])
+    again = _write(tmp_path / "again.jsonl", _grid(seed=1, score=0.0))
+    moved = tmp_path / "moved.jsonl"
+    add_grid.add_grid(results, [again], moved, add_seed=True)
+    assert [json.loads(t) for t in moved.read_text().splitlines()] == _grid(seed=1)
+    kept = [json.loads(t) for t in results.read_text().splitlines()]
+    assert kept == [*_grid(seed=0), *_grid(seed=1, score=0.0)]
+    before = results.read_text()
+    for other in ({"budget": "cpu@2"}, {"digest": "d9"}):
+        grid = _write(tmp_path / "g.jsonl", _grid(seed=2, **other))
+        with pytest.raises(FbilError, match="add a seed only to a grid of the same budget"):
+            add_grid.add_grid(results, [grid], None, add_seed=True)
+    assert results.read_text() == before
+
+
+def test_a_grid_of_two_seeds_at_once_is_refused(tmp_path: Path) -> None:
+    rows = [*_grid(seed=0)[:-1], _line("smodice", TASKS[-1], 1, seed=1)]
+    with pytest.raises(FbilError, match="several seed values"):
+        add_grid.add_grid(tmp_path / "r.jsonl", [_write(tmp_path / "g.jsonl", rows)], None)

@@ -249,3 +249,26 @@ def test_a_paper_figure_no_policy_can_reach_is_marked_and_left_out(tmp_path: Pat
     # Without such a method in the results there is no such section.
     plain = write_report(_write(tmp_path / "plain.jsonl", _maze_rows()), tmp_path / "plain")
     assert "maximum return" not in plain.read_text()
+
+
+def test_a_grid_run_with_two_training_seeds_is_averaged_per_draw(tmp_path: Path) -> None:
+    """A second seed's lines (same tasks and draws) used to replace the first's: now each
+    draw's score is the mean over its seeds, and the report shows each seed and the gap."""
+    scores = {"loop": (0.2, 0.4), "square": (0.4, 0.6)}  # seed 0: draws 30 %, 50 %
+    seed0 = _rows("point_mass_maze", "td3il", scores, (800.0,) * 4)
+    seed1 = [{**r, "seed": 1, "score": r["score"] + 0.2} for r in seed0]  # 50 %, 70 %
+    td3il = summarise([*seed0, *seed1])["settings"]["standard, K=1"]["td3il"]
+    assert td3il["score"] == pytest.approx(0.5)  # draws 40 % and 60 %
+    assert td3il["ci95"] == pytest.approx(1.96 * 0.1414214 / 2**0.5, rel=1e-5)  # over 2 draws
+    assert (td3il["draws"], td3il["seeds"], td3il["jobs"]) == (2, 2, 8)
+    assert td3il["seed_scores"] == pytest.approx({0: 0.4, 1: 0.6})
+    one_seed = summarise(seed0)["settings"]["standard, K=1"]["td3il"]
+    assert (one_seed["score"], one_seed["seeds"], one_seed["seed_scores"]) == (
+        pytest.approx(0.4),
+        1,
+        {},
+    )
+    text = write_report(_write(tmp_path / "r.jsonl", [*seed0, *seed1]), tmp_path / "o")
+    report = text.read_text()
+    assert "| td3il | reward (0/1 labels) | 50.0 | 19.6 | 2 × 2 seeds | 65.1 |" in report
+    assert "| td3il | seed 0: 40.0, seed 1: 60.0 | 20.0 |" in report

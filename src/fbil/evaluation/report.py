@@ -73,6 +73,9 @@ def _check_budgets(rows: Sequence[dict[str, Any]]) -> None:
         )
 
 
+Run = tuple[int, int]  # (demo draw, training seed): one job of a method on a task
+
+
 def summarise(rows: Sequence[dict[str, Any]]) -> dict[str, Any]:
     """Scores and returns per (demo_set, k) setting, method and task."""
     domains = sorted({r["domain"] for r in rows})
@@ -82,12 +85,13 @@ def summarise(rows: Sequence[dict[str, Any]]) -> dict[str, Any]:
             "results file (run `fbil benchmark` with a separate --out per domain)"
         )
     _check_budgets(rows)
-    cells: dict[tuple[str, int], dict[str, dict[str, dict[int, dict[str, Any]]]]] = defaultdict(
+    cells: dict[tuple[str, int], dict[str, dict[str, dict[Run, dict[str, Any]]]]] = defaultdict(
         lambda: defaultdict(lambda: defaultdict(dict))
     )
     for r in rows:
         if "score" in r:
-            cells[(r["demo_set"], r["k"])][r["method"]][r["task"]][r["draw"]] = r
+            run = (int(r["draw"]), int(r.get("seed") or 0))
+            cells[(r["demo_set"], r["k"])][r["method"]][r["task"]][run] = r
     settings = {
         f"{setting[0]}, K={setting[1]}": {
             method: _method_summary(method, per_task) for method, per_task in per_method.items()
@@ -97,18 +101,37 @@ def summarise(rows: Sequence[dict[str, Any]]) -> dict[str, Any]:
     return {"domain": domains[0] if domains else None, "settings": settings}
 
 
-def _method_summary(method: str, per_task: dict[str, dict[int, dict[str, Any]]]) -> dict[str, Any]:
-    """One method in one setting: its score over tasks and draws, per-task returns, the
-    median time to policy over its jobs, and its family and IL principle."""
+def _seed_scores(per_run: dict[Run, float]) -> dict[int, float]:
+    """Each training seed's task-averaged score over the draws that every seed has (empty
+    for one seed): the seed-to-seed spread of a grid run more than once."""
+    seeds = sorted({s for _, s in per_run})
+    if len(seeds) < 2:
+        return {}
+    draws = set.intersection(*({d for d, s2 in per_run if s2 == s} for s in seeds))
+    if not draws:
+        return {}
+    return {s: float(np.mean([per_run[(d, s)] for d in sorted(draws)])) for s in seeds}
+
+
+def _method_summary(method: str, per_task: dict[str, dict[Run, dict[str, Any]]]) -> dict[str, Any]:
+    """One method in one setting: its score over tasks and draws (a draw's training seeds
+    averaged first), per-task returns, each seed's score, the median time to policy over
+    its jobs, and its family and IL principle."""
     tasks = sorted(per_task)
-    draws = sorted(set.intersection(*(set(per_task[t]) for t in tasks)))
-    # Task-averaged score per draw: the repetition unit for the interval.
-    per_draw = [np.mean([per_task[t][d]["score"] for t in tasks]) for d in draws]
+    runs = sorted(set.intersection(*(set(per_task[t]) for t in tasks)))
+    # Task-averaged score per run; per draw, the mean over its seeds: the interval's unit.
+    per_run = {run: float(np.mean([per_task[t][run]["score"] for t in tasks])) for run in runs}
+    by_draw: dict[int, list[float]] = defaultdict(list)
+    for (d, _), v in per_run.items():
+        by_draw[d].append(v)
+    per_draw = [float(np.mean(v)) for v in by_draw.values()]
     jobs = [c for t in tasks for c in per_task[t].values()]
     return {
         "score": float(np.mean(per_draw)) if per_draw else float("nan"),
         "ci95": _ci95(per_draw),
-        "draws": len(draws),
+        "draws": len(per_draw),
+        "seeds": len({s for _, s in runs}),
+        "seed_scores": _seed_scores(per_run),
         "tasks": {
             t: {
                 "return_mean": float(np.mean([c["return_mean"] for c in per_task[t].values()])),
@@ -365,7 +388,8 @@ def _domain_report(
         f"Results: {', '.join(str(f) for f in files)} ({len(rows)} jobs; commits "
         f"{', '.join(c[:10] for c in commits)}). Imitation score = return of the imitation "
         "policy / the expert's mean return, over 1000-step episodes from the standard start. "
-        "Intervals: 95% over demo draws (task-averaged score per draw). Paper: Pirotta et al. "
+        "Intervals: 95% over demo draws (task-averaged score per draw, averaged over training "
+        "seeds where a method has several). Paper: Pirotta et al. "
         "2024, 10 GPU-trained FB models, 1000 episodes, 20 draws.",
         "",
     ]
@@ -498,11 +522,12 @@ def _setting_section(
         r = methods[m]
         lines.append(
             f"| {m} | {principle_of(m)} | "
-            f"{_fmt(100 * r['score'])} | {_fmt(100 * r['ci95'])} | {r['draws']} | "
+            f"{_fmt(100 * r['score'])} | {_fmt(100 * r['ci95'])} | {_draws(r)} | "
             f"{_fmt(paper_scores.get(m, float('nan')))} | {r['seconds_median']:.3f} |"
         )
     fig = _score_figure(summary, setting, out_dir / f"scores_{slug}.png")
     lines += ["", f"![scores]({fig.name})", ""]
+    lines += _training_seeds(methods, names)
     tasks = sorted({t for r in methods.values() for t in r["tasks"]})
     lines += _returns_table(summary["domain"], setting, methods, names, tasks)
     # Per-task scores: one task with a weak or negative-return expert can dominate
@@ -513,6 +538,33 @@ def _setting_section(
         per = methods[m]["tasks"]
         cells = [_fmt(100 * per[t]["score"]) if t in per else "–" for t in tasks]
         lines.append(f"| {m} | " + " | ".join(cells) + " |")
+    return [*lines, ""]
+
+
+def _draws(r: dict[str, Any]) -> str:
+    """The draws cell: the number of draws, and of training seeds where there are several."""
+    return f"{r['draws']} × {r['seeds']} seeds" if r.get("seeds", 1) > 1 else str(r["draws"])
+
+
+def _training_seeds(methods: dict[str, Any], names: list[str]) -> list[str]:
+    """The methods run with several training seeds: each seed's score and the gap, the
+    spread a one-seed comparison cannot see."""
+    several = [m for m in names if methods[m].get("seed_scores")]
+    if not several:
+        return []
+    lines = [
+        "Training seeds: a method run more than once per draw (`fbil benchmark --seed`) is "
+        "scored as the mean over its seeds within each draw, then over draws. Each seed's "
+        "score over the draws that all its seeds have, and the largest gap between two seeds:",
+        "",
+        "| method | score per seed (%) | seed gap (points) |",
+        "|---|---|---|",
+    ]
+    for m in several:
+        per = methods[m]["seed_scores"]
+        cells = ", ".join(f"seed {s}: {_fmt(100 * v)}" for s, v in sorted(per.items()))
+        gap = 100 * (max(per.values()) - min(per.values()))
+        lines.append(f"| {m} | {cells} | {_fmt(gap)} |")
     return [*lines, ""]
 
 
