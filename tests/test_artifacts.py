@@ -93,3 +93,24 @@ def test_the_committed_walker_model_is_what_the_cpu_preset_trains() -> None:
     trained = config_from_dict(FBTrainConfig, saved["train_config"])
     assert dataclasses.replace(trained, snapshot_every=0) == train_cfg
     assert verify(folder)["steps"] == train_cfg.steps
+
+
+@pytest.mark.parametrize("domain", ["cheetah", "quadruped"])
+def test_the_next_locomotion_domains_start_from_walkers_recipe(domain: str) -> None:
+    """docs/walker.md tells cheetah and quadruped to start from walker's preset (reference
+    mechanisms, 1 024-unit F, the averaged model): their `cpu` preset is walker's but for
+    what Table 1 sets per domain (z size, B's normalisation, sizes from the environment)."""
+    import dataclasses
+
+    from fbil.envs.registry import get_domain
+    from fbil.fb.config import preset
+
+    walker_model, walker_train = preset("walker", "cpu")
+    model, train = preset(domain, "cpu")
+    spec = get_domain(domain)
+    assert (model.obs_dim, model.act_dim, model.z_dim) == (spec.obs_dim, spec.act_dim, 50)
+    same = dataclasses.replace(
+        walker_model, obs_dim=model.obs_dim, act_dim=model.act_dim, z_dim=50, b_norm=model.b_norm
+    )
+    assert model == same
+    assert train == walker_train
