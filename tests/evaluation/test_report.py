@@ -271,4 +271,21 @@ def test_a_grid_run_with_two_training_seeds_is_averaged_per_draw(tmp_path: Path)
     text = write_report(_write(tmp_path / "r.jsonl", [*seed0, *seed1]), tmp_path / "o")
     report = text.read_text()
     assert "| td3il | reward (0/1 labels) | 50.0 | 19.6 | 2 × 2 seeds | 65.1 |" in report
-    assert "| td3il | seed 0: 40.0, seed 1: 60.0 | 20.0 |" in report
+    assert "| td3il | seed 0: 40.0, seed 1: 60.0 | 20.0 | loop 20.0, square 20.0 |" in report
+    assert td3il["task_seed_gaps"] == pytest.approx({"loop": 0.2, "square": 0.2})
+
+
+def test_the_seed_gap_per_task_is_over_the_draws_every_seed_has() -> None:
+    """Seed 1 ran only draw 0, where it is 30 points above seed 0 on loop and level on
+    square: the gaps compare the seeds on that draw, not seed 0's mean over two draws."""
+    seed0 = _rows(
+        "point_mass_maze", "td3il", {"loop": (0.2, 0.9), "square": (0.5, 0.1)}, (800.0,) * 4
+    )
+    seed1 = [
+        {**r, "seed": 1, "score": r["score"] + (0.3 if r["task"] == "loop" else 0.0)}
+        for r in seed0
+        if r["draw"] == 0
+    ]
+    td3il = summarise([*seed0, *seed1])["settings"]["standard, K=1"]["td3il"]
+    assert td3il["task_seed_gaps"] == pytest.approx({"loop": 0.3, "square": 0.0})
+    assert summarise(seed0)["settings"]["standard, K=1"]["td3il"]["task_seed_gaps"] == {}

@@ -113,6 +113,19 @@ def _seed_scores(per_run: dict[Run, float]) -> dict[int, float]:
     return {s: float(np.mean([per_run[(d, s)] for d in sorted(draws)])) for s in seeds}
 
 
+def _task_seed_gaps(per_task: dict[str, dict[Run, dict[str, Any]]]) -> dict[str, float]:
+    """Per task, the largest gap between two training seeds' scores, each seed's score the
+    mean over the draws that every seed has (empty for one seed): the spread a per-task
+    comparison with another method must exceed to be read."""
+    gaps: dict[str, float] = {}
+    for task, runs in per_task.items():
+        per_run = {run: float(c["score"]) for run, c in runs.items()}
+        per_seed = _seed_scores(per_run)
+        if per_seed:
+            gaps[task] = max(per_seed.values()) - min(per_seed.values())
+    return gaps
+
+
 def _method_summary(method: str, per_task: dict[str, dict[Run, dict[str, Any]]]) -> dict[str, Any]:
     """One method in one setting: its score over tasks and draws (a draw's training seeds
     averaged first), per-task returns, each seed's score, the median time to policy over
@@ -132,6 +145,7 @@ def _method_summary(method: str, per_task: dict[str, dict[Run, dict[str, Any]]])
         "draws": len(per_draw),
         "seeds": len({s for _, s in runs}),
         "seed_scores": _seed_scores(per_run),
+        "task_seed_gaps": _task_seed_gaps(per_task),
         "tasks": {
             t: {
                 "return_mean": float(np.mean([c["return_mean"] for c in per_task[t].values()])),
@@ -555,16 +569,20 @@ def _training_seeds(methods: dict[str, Any], names: list[str]) -> list[str]:
     lines = [
         "Training seeds: a method run more than once per draw (`fbil benchmark --seed`) is "
         "scored as the mean over its seeds within each draw, then over draws. Each seed's "
-        "score over the draws that all its seeds have, and the largest gap between two seeds:",
+        "score over the draws that all its seeds have, the largest gap between two seeds, and "
+        "the same gap per task (a per-task difference to another method smaller than twice "
+        "it is within seed noise):",
         "",
-        "| method | score per seed (%) | seed gap (points) |",
-        "|---|---|---|",
+        "| method | score per seed (%) | seed gap (points) | seed gap per task (points) |",
+        "|---|---|---|---|",
     ]
     for m in several:
         per = methods[m]["seed_scores"]
         cells = ", ".join(f"seed {s}: {_fmt(100 * v)}" for s, v in sorted(per.items()))
         gap = 100 * (max(per.values()) - min(per.values()))
-        lines.append(f"| {m} | {cells} | {_fmt(gap)} |")
+        tasks = methods[m].get("task_seed_gaps", {})
+        per_task = ", ".join(f"{t} {_fmt(100 * g)}" for t, g in sorted(tasks.items()))
+        lines.append(f"| {m} | {cells} | {_fmt(gap)} | {per_task or '–'} |")
     return [*lines, ""]
 
 
