@@ -8,13 +8,14 @@ set -euo pipefail
 #       oversampling), random_uniform_200 and the two merges of issue #23's mixed recipe,
 #       each checked against its committed dataset-info
 #   scripts/regenerate_datasets.sh walker            ~40-45 min: datasets/walker/rnd (1 M)
+#   scripts/regenerate_datasets.sh cheetah           ~25 min: datasets/cheetah/rnd (1 M)
 # Skips a dataset whose folder is complete. THREADS (1) per job; DRY=1 prints the commands.
 # A dataset that does not match its committed dataset-info is reported and the script goes
 # on to the next one, then exits 1. On another kind of CPU than the one that made the
 # committed data (another vendor or vector width) RND collection drifts and never matches:
 # the data are then a new sample of the same recipe, not a copy (docs/datasets.md).
 cd "$(dirname "$0")/.."
-DOMAIN=${1:?usage: scripts/regenerate_datasets.sh point_mass_maze|walker}
+DOMAIN=${1:?usage: scripts/regenerate_datasets.sh point_mass_maze|walker|cheetah}
 THREADS=${THREADS:-1}
 export MUJOCO_GL=${MUJOCO_GL:-egl}
 run() { echo "+ $*"; [ -n "${DRY:-}" ] || "$@"; }
@@ -65,7 +66,12 @@ case "$DOMAIN" in
       --out datasets/walker/rnd --seed 0 --threads "$THREADS"
     check walker datasets/walker/rnd artifacts/datasets/walker/info.json || FAILED+=(walker/rnd)
     ;;
-  *) echo "error: no regeneration recipe for domain '$DOMAIN'; known: point_mass_maze, walker" >&2; exit 2 ;;
+  cheetah)
+    have datasets/cheetah/rnd || run fbil collect cheetah --explorer rnd --episodes 1000 \
+      --out datasets/cheetah/rnd --seed 0 --threads "$THREADS"
+    check cheetah datasets/cheetah/rnd artifacts/datasets/cheetah/info.json || FAILED+=(cheetah/rnd)
+    ;;
+  *) echo "error: no regeneration recipe for domain '$DOMAIN'; known: point_mass_maze, walker, cheetah" >&2; exit 2 ;;
 esac
 if [ ${#FAILED[@]} -gt 0 ]; then
   cpu=$(python -c "from fbil.artifacts import machine; print(machine())")

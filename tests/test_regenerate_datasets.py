@@ -43,8 +43,14 @@ def test_walker_command_is_the_recorded_collection() -> None:
     assert commands == [_manifest("walker")["dataset_manifest"]["command"]]
 
 
+def test_cheetah_command_is_the_recorded_collection() -> None:
+    rc, commands = _dry("cheetah")
+    assert rc == 0
+    assert commands == [_manifest("cheetah")["dataset_manifest"]["command"]]
+
+
 def test_a_domain_without_a_recipe_is_refused() -> None:
-    out = subprocess.run(["bash", str(SCRIPT), "cheetah"], capture_output=True, text=True)
+    out = subprocess.run(["bash", str(SCRIPT), "quadruped"], capture_output=True, text=True)
     assert out.returncode == 2 and "no regeneration recipe" in out.stderr
 
 
