@@ -61,15 +61,11 @@ case "$DOMAIN" in
       check "$n" "$D/$n" "$A/info_$n.json" || FAILED+=("$n")
     done
     ;;
-  walker)
-    have datasets/walker/rnd || run fbil collect walker --explorer rnd --episodes 1000 \
-      --out datasets/walker/rnd --seed 0 --threads "$THREADS"
-    check walker datasets/walker/rnd artifacts/datasets/walker/info.json || FAILED+=(walker/rnd)
-    ;;
-  cheetah)
-    have datasets/cheetah/rnd || run fbil collect cheetah --explorer rnd --episodes 1000 \
-      --out datasets/cheetah/rnd --seed 0 --threads "$THREADS"
-    check cheetah datasets/cheetah/rnd artifacts/datasets/cheetah/info.json || FAILED+=(cheetah/rnd)
+  walker|cheetah)  # locomotion: one RND collection of 1 000 episodes, walker's recipe
+    D=datasets/$DOMAIN/rnd
+    have "$D" || run fbil collect "$DOMAIN" --explorer rnd --episodes 1000 \
+      --out "$D" --seed 0 --threads "$THREADS"
+    check "$DOMAIN" "$D" "artifacts/datasets/$DOMAIN/info.json" || FAILED+=("$DOMAIN/rnd")
     ;;
   *) echo "error: no regeneration recipe for domain '$DOMAIN'; known: point_mass_maze, walker, cheetah" >&2; exit 2 ;;
 esac
