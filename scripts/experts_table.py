@@ -13,10 +13,11 @@ machine), so re-running after improving some experts leaves the others as commit
 
 from __future__ import annotations
 
+import argparse
 import json
 import sys
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 from fbil.artifacts import write_manifest
 from fbil.checkpoint import atomic_write_text
@@ -58,29 +59,50 @@ def _provenance(experts: Path, source: str) -> dict[str, Any] | None:
     }
 
 
-COMMANDS = {
-    "point_mass_maze": (
-        "scripts/maze_experts.sh DATA runs/experts/point_mass_maze DEMOS 30000 1 (offline TD3, "
-        "n-step 10; with ONLINE_STEPS=N each offline expert is then fine-tuned online for N "
-        "steps and the demos come from it: 20 standard-start demos with --seed 0, 10 "
-        "shifted-start demos); then python scripts/experts_table.py "
-        "artifacts/demos/point_mass_maze runs/experts/point_mass_maze"
-    ),
-    "walker": (
-        "scripts/walker_experts.sh runs/experts_online/walker artifacts/demos/walker 1 (online "
-        "TD3, n-step 3, TASKS/PRECISION/STEPS_<task> per expert as recorded in each chain's "
-        "command; 20 standard-start demos with --seed 0, 10 shifted-start demos); then python "
-        "scripts/experts_table.py artifacts/demos/walker runs/experts_online/walker"
-    ),
-}
-DATA = {
-    "point_mass_maze": "datasets/point_mass_maze/rnd_uniform (408 episodes)",
-    "walker": "none (online TD3 in the environment)",
-}
+MAZE_COMMAND = (
+    "scripts/maze_experts.sh DATA runs/experts/point_mass_maze DEMOS 30000 1 (offline TD3, "
+    "n-step 10; with ONLINE_STEPS=N each offline expert is then fine-tuned online for N "
+    "steps and the demos come from it: 20 standard-start demos with --seed 0, 10 "
+    "shifted-start demos); then python scripts/experts_table.py "
+    "artifacts/demos/point_mass_maze runs/experts/point_mass_maze"
+)
+
+
+def _command(domain: str, demos_dir: str, experts_dir: str) -> str:
+    """The command that made the table: the maze's own script, or scripts/experts.sh
+    (walker_experts.sh is experts.sh walker) for a locomotion domain."""
+    if domain == "point_mass_maze":
+        return MAZE_COMMAND
+    return (
+        f"scripts/experts.sh {domain} {experts_dir} {demos_dir} 1 (online TD3, n-step 3, "
+        "TASKS/PRECISION/STEPS_<task>/DATA per expert as recorded in each chain's command; "
+        "20 standard-start demos with --seed 0, 10 shifted-start demos); then python "
+        f"scripts/experts_table.py {demos_dir} {experts_dir}"
+    )
+
+
+def _data(made: dict[str, dict[str, Any]]) -> str:
+    """The datasets the experts trained on (`--data` in their chains' commands)."""
+    used: set[str] = set()
+    for task in made.values():
+        for link in task["chain"]:
+            words = link["command"].split()
+            used.update(words[i + 1] for i, w in enumerate(words[:-1]) if w == "--data")
+    return ", ".join(sorted(used)) or "none (online TD3 in the environment)"
+
+
+def _fail(message: str) -> NoReturn:
+    print(f"error: {message}", file=sys.stderr)
+    raise SystemExit(2)
 
 
 def main(demos_dir: str, experts_dir: str) -> None:
     domain = Path(demos_dir).name
+    if domain not in PAPER_RETURNS:
+        known = ", ".join(sorted(PAPER_RETURNS))
+        _fail(f"{demos_dir}: the folder's name must be a domain ({known})")
+    if not Path(experts_dir).is_dir():
+        _fail(f"{experts_dir}: no such experts folder")
     paper = PAPER_RETURNS[domain]["expert"]
     table = Path(demos_dir) / "experts.json"
     previous = json.loads(table.read_text())["tasks"] if table.is_file() else {}
@@ -94,7 +116,7 @@ def main(demos_dir: str, experts_dir: str) -> None:
             tasks[task] = previous[task]
             continue
         if made is None:
-            raise SystemExit(f"no expert for {task} in {experts_dir} and none in {table}")
+            _fail(f"no expert for {task} in {experts_dir} and none in {table}")
         m = demos.metadata
         tasks[task] = {
             "return_mean": round(m["return_mean"], 1),
@@ -122,7 +144,7 @@ def main(demos_dir: str, experts_dir: str) -> None:
         )
     write_manifest(
         demos_dir,
-        COMMANDS[domain],
+        _command(domain, demos_dir, experts_dir),
         0,
         round(sum(m["wall_seconds"] for m in made_here.values()), 1),
         git_commit(),
@@ -130,10 +152,16 @@ def main(demos_dir: str, experts_dir: str) -> None:
             "made_in_this_run": made_here,
             "kept_from_the_previous_table": kept,
             "previous_manifests": history,
-            "data": DATA[domain],
+            "data": _data(made_here),
         },
     )
 
 
 if __name__ == "__main__":
-    main(sys.argv[1], sys.argv[2])
+    parser = argparse.ArgumentParser(
+        description="experts.json and the manifest of a demos folder, from its experts"
+    )
+    parser.add_argument("demos_dir", help="artifacts/demos/DOMAIN (its name is the domain)")
+    parser.add_argument("experts_dir", help="the experts' folders, e.g. runs/experts_online/DOMAIN")
+    args = parser.parse_args()
+    main(args.demos_dir, args.experts_dir)
