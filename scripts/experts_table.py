@@ -152,7 +152,8 @@ def main(demos_dir: str, experts_dir: str) -> None:
             "made_in_this_run": made_here,
             "kept_from_the_previous_table": kept,
             "previous_manifests": history,
-            "data": _data(made_here),
+            # a run that kept every task keeps the table's data as recorded before
+            "data": _data(made_here) if made_here else before.get("data", _data({})),
         },
     )
 

@@ -69,3 +69,18 @@ def test_a_folder_not_named_after_a_domain_is_refused(
         experts_table.main(str(tmp_path / demos_name), str(tmp_path))
     assert exit_.value.code == 2
     assert "the folder's name must be a domain" in capsys.readouterr().err
+
+
+def test_a_rerun_that_keeps_every_task_keeps_the_recorded_data(tmp_path: Path) -> None:
+    demos, experts = tmp_path / "cheetah", tmp_path / "experts"
+    demos.mkdir()
+    _expert(
+        experts / "walk", "fbil expert cheetah walk --mode online --data datasets/cheetah/rnd", 5.0
+    )
+    _demos(demos / "walk.npz", "TD3 expert walk", [800.0])
+    experts_table.main(str(demos), str(experts))
+    elsewhere = tmp_path / "elsewhere"  # the experts' folders are not on this machine
+    elsewhere.mkdir()
+    experts_table.main(str(demos), str(elsewhere))
+    assert json.loads((demos / "experts.json").read_text())["tasks"]["walk"]["return_mean"] == 800.0
+    assert json.loads((demos / "manifest.json").read_text())["data"] == "datasets/cheetah/rnd"
