@@ -38,6 +38,7 @@ def _provenance(experts: Path, source: str) -> dict[str, Any] | None:
     if not (folder / "expert.json").is_file():
         return None
     chain, wall, first = [], 0.0, None
+    data: set[str] = set()
     while (folder / "expert.json").is_file():
         meta = json.loads((folder / "expert.json").read_text())
         first = first or meta
@@ -47,6 +48,7 @@ def _provenance(experts: Path, source: str) -> dict[str, Any] | None:
         )  # fmt: skip
         wall += _wall(folder)
         words = " ".join(meta.get("commands") or [meta.get("command", "")]).split()
+        data.update(words[i + 1] for i, w in enumerate(words[:-1]) if w == "--data")
         if "--init" not in words:
             break
         folder = Path(words[words.index("--init") + 1])
@@ -56,6 +58,7 @@ def _provenance(experts: Path, source: str) -> dict[str, Any] | None:
         "actor_step": first.get("best_step") if first else None,
         "chain": chain,
         "wall_seconds": round(wall, 1),
+        "data": sorted(data),  # the datasets of the chain's commands (`--data`)
     }
 
 
@@ -83,12 +86,8 @@ def _command(domain: str, demos_dir: str, experts_dir: str) -> str:
 
 def _data(made: dict[str, dict[str, Any]]) -> str:
     """The datasets the experts trained on (`--data` in their chains' commands)."""
-    used: set[str] = set()
-    for task in made.values():
-        for link in task["chain"]:
-            words = link["command"].split()
-            used.update(words[i + 1] for i, w in enumerate(words[:-1]) if w == "--data")
-    return ", ".join(sorted(used)) or "none (online TD3 in the environment)"
+    used = sorted({path for task in made.values() for path in task["data"]})
+    return ", ".join(used) or "none (online TD3 in the environment)"
 
 
 def _fail(message: str) -> NoReturn:
