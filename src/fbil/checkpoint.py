@@ -9,6 +9,9 @@ from __future__ import annotations
 
 import json
 import os
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -106,3 +109,69 @@ def atomic_write_text(path: str | Path, text: str) -> Path:
     tmp.write_text(text)
     tmp.replace(path)
     return path
+
+
+@dataclass
+class FitCheckpoint:
+    """Exact resumption of one imitation fit (a baseline's training loop) after a kill.
+
+    The loop calls `resume(phase)` once, before its first update, and `tick` after each
+    update; every `every` seconds, and after the last update, `tick` writes the loop's whole
+    state to `path`. `signature` names what is trained (the job, its settings, the data):
+    a file of another signature or phase is left alone and replaced at the next save. The
+    time to policy (`seconds`) adds the fit seconds that earlier processes had reached to
+    this process's since its resume, so work redone before the resume is not counted twice.
+    """
+
+    path: Path
+    signature: str
+    every: float = 180.0
+    resumed_at: list[int] = field(default_factory=list)  # the steps this fit resumed from
+    _started: float = field(default_factory=time.perf_counter)
+    _saved: float = field(default_factory=time.perf_counter)
+    _prior: float | None = None  # fit seconds of earlier processes, once resumed
+    _resumed: float = 0.0
+
+    def begin(self) -> None:
+        """The fit starts in this process (its clock starts here)."""
+        self._started = self._saved = time.perf_counter()
+
+    def seconds(self) -> float:
+        """The fit's seconds so far, over every process that worked on it."""
+        now = time.perf_counter()
+        return now - self._started if self._prior is None else self._prior + now - self._resumed
+
+    def resume(self, phase: str) -> tuple[int, dict[str, Any], dict[str, float]] | None:
+        """(the last saved step, the agent's state, the last update's numbers) of
+        `phase`, or None: start afresh."""
+        if not self.path.is_file():
+            return None
+        try:
+            saved = load_state(self.path)
+        except FbilError:  # unreadable: start over (the next save replaces it)
+            return None
+        if saved.get("signature") != self.signature or saved.get("phase") != phase:
+            return None
+        self._prior, self._resumed = float(saved["seconds"]), time.perf_counter()
+        self.resumed_at.append(int(saved["step"]))
+        return int(saved["step"]), saved["agent"], dict(saved["info"])
+
+    def tick(
+        self,
+        phase: str,
+        step: int,
+        steps: int,
+        agent: Callable[[], dict[str, Any]],
+        info: dict[str, float],
+    ) -> None:
+        """After update `step` of `steps`: save the agent's state (`agent()`, called only
+        then) and the update's numbers `info` when due, and always after the last one."""
+        if step < steps and time.perf_counter() - self._saved < self.every:
+            return
+        entry = {"signature": self.signature, "phase": phase, "step": step, "info": info}
+        save_state(self.path, {**entry, "seconds": self.seconds(), "agent": agent()})
+        self._saved = time.perf_counter()
+
+    def discard(self) -> None:
+        """The fit's result is safe elsewhere: remove the file."""
+        self.path.unlink(missing_ok=True)

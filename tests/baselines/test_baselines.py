@@ -19,32 +19,13 @@ from fbil.baselines.common import Transitions, demo_transitions
 from fbil.baselines.offline_td3 import MixedSampler
 from fbil.baselines.oril import Discriminator, discriminator_loss
 from fbil.baselines.td3il import labels
-from fbil.data import list_episodes, load_dataset, load_episode
-from fbil.envs.relabel import relabel
+from fbil.data import load_dataset
 from fbil.errors import FbilError
 from fbil.evaluation.benchmark import make_jobs, run_job
-from fbil.imitation import Demos, Trajectory, from_arrays
+from fbil.imitation import Demos, from_arrays
 
 BASELINES = ("bc", "td3il", "oril", "oril_o", "oril_oo")
 BASELINES += ("dwbc", "sqil", "demodice", "smodice", "lobsdice", "iqlearn")
-
-
-@pytest.fixture(scope="module")
-def demos_dir(fixture_data: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """square.npz: two fixture episodes relabeled with the task's reward (as the
-    evaluation tests make them), and an action-free copy."""
-    out = tmp_path_factory.mktemp("demos")
-    trajs = []
-    for f in list_episodes(fixture_data)[:2]:
-        ep = load_episode(f.path)
-        reward = relabel("point_mass_maze", "square", ep["physics"][1:], ep["action"][1:])
-        trajs.append(Trajectory(ep["observation"], ep["action"][1:], reward.astype(np.float32)))
-    meta = {"domain": "point_mass_maze", "task": "square"}
-    meta["return_mean"] = float(np.mean([float(t.reward.sum()) for t in trajs]))  # type: ignore[union-attr]
-    Demos(trajs, meta).save(out / "square.npz")
-    free = [Trajectory(t.observation, None, t.reward) for t in trajs]
-    Demos(free, meta).save(out / "square_free.npz")
-    return out
 
 
 def fbil(*args: str) -> subprocess.CompletedProcess[str]:

@@ -83,7 +83,13 @@ def fit(demos: Demos, context: FitContext) -> TrainedPolicy:
     expert = demo_transitions(demos)
     update = iq_update(cfg.chi2)
     agent, info = train_sac(
-        context.dataset, update, cfg.sac, context.seed, expert, cfg.expert_ratio
+        context.dataset,
+        update,
+        cfg.sac,
+        context.seed,
+        expert,
+        cfg.expert_ratio,
+        checkpoint=context.checkpoint,
     )
     return TrainedPolicy("iqlearn", agent.act, agent.state(), info, agent.cfg.precision)
 

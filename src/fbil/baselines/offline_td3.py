@@ -15,6 +15,7 @@ import torch
 
 from fbil.agents.td3 import TD3, TD3Config
 from fbil.baselines.common import Transitions, dataset_rows, paper_gamma
+from fbil.checkpoint import FitCheckpoint
 from fbil.errors import FbilError
 
 Labeler = Callable[[Transitions], torch.Tensor]  # a minibatch -> its rewards (B,)
@@ -121,23 +122,32 @@ def train_offline_td3(
     expert: Transitions | None = None,
     expert_ratio: float | None = None,
     on_step: Callable[[int, TD3], None] | None = None,
+    checkpoint: FitCheckpoint | None = None,
 ) -> tuple[TD3, dict[str, float]]:
     """TD3 trained for `config.steps` updates on relabeled minibatches; the agent and the
     last update's numbers (critic loss, mean Q, mean reward). `on_step(t, agent)` runs
-    after update t (1-based): a diagnostic's budget curve within one run."""
+    after update t (1-based): a diagnostic's budget curve within one run. `checkpoint`:
+    the loop resumes from it and saves to it (the agent's state holds the sampler's RNG,
+    so a resumed run is the same run)."""
     spec = config.td3(dataset.domain)
     agent = TD3(dataset.observation.shape[1], dataset.action.shape[1], spec, seed)
     if config.standardize:
         agent.set_obs_stats(dataset.observation)
     sample = MixedSampler(dataset, expert, spec.batch_size, expert_ratio, agent.gen)
     last: dict[str, float] = {}
-    for t in range(1, config.steps + 1):
+    first = 1
+    if checkpoint is not None and (saved := checkpoint.resume("td3")) is not None:
+        agent.load(saved[1])
+        first, last = saved[0] + 1, saved[2]
+    for t in range(first, config.steps + 1):
         batch = sample()
         with torch.no_grad():
             reward = label(batch).float()
         assert batch.action is not None
         metrics = agent.update(batch.obs, batch.action, reward, batch.next_obs, batch.discount)
         last = {**metrics, "reward_mean": float(reward.mean())}
+        if checkpoint is not None:
+            checkpoint.tick("td3", t, config.steps, agent.state, last)
         if on_step is not None:
             on_step(t, agent)
     return agent, {k: round(v, 5) for k, v in last.items()}

@@ -154,6 +154,7 @@ def _imitator(name: str) -> Imitator:
             cfg.td3,
             context.seed,
             expert=demo_transitions(demos) if kind == "sa" else None,
+            checkpoint=context.checkpoint,
         )
         return TrainedPolicy(name, agent.act, agent_state(agent), info, agent.cfg.precision)
 

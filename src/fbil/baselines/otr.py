@@ -160,7 +160,9 @@ def fit(demos: Demos, context: FitContext) -> TrainedPolicy:
         assert batch.index is not None  # dataset rows only: no expert rows are mixed in
         return rewards[batch.index]
 
-    agent, info = train_offline_td3(context.dataset, label, cfg.td3, context.seed)
+    agent, info = train_offline_td3(
+        context.dataset, label, cfg.td3, context.seed, checkpoint=context.checkpoint
+    )
     info["otr_reward_mean"] = round(float(rewards.mean()), 5)
     info["otr_reward_max"] = round(float(rewards.max()), 5)
     return TrainedPolicy("otr", agent.act, agent_state(agent), info, agent.cfg.precision)

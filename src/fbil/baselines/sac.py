@@ -28,6 +28,7 @@ from fbil.agents.td3 import _mlp, run_mlp
 from fbil.baselines.bc import LOG_STD
 from fbil.baselines.common import Transitions, paper_gamma, standardiser
 from fbil.baselines.offline_td3 import MixedSampler
+from fbil.checkpoint import FitCheckpoint
 
 
 @dataclass(frozen=True)
@@ -136,6 +137,19 @@ class SAC:
     def state(self) -> dict[str, Any]:
         return {"actor": self.actor.state_dict(), "obs_stats": self.stats}
 
+    def train_state(self) -> dict[str, Any]:
+        """Everything training changes: networks, targets, optimisers, temperature, RNG."""
+        nets = ("actor", "critics", "targets", "actor_opt", "critic_opt", "alpha_opt")
+        state = {name: getattr(self, name).state_dict() for name in nets}
+        return {**state, "log_alpha": self.log_alpha.detach().clone(), "gen": self.gen.get_state()}
+
+    def load_train_state(self, state: dict[str, Any]) -> None:
+        for name in ("actor", "critics", "targets", "actor_opt", "critic_opt", "alpha_opt"):
+            getattr(self, name).load_state_dict(state[name])
+        with torch.no_grad():
+            self.log_alpha.copy_(state["log_alpha"])
+        self.gen.set_state(state["gen"])
+
 
 Update = Callable[[SAC, Transitions], dict[str, float]]  # one update on a minibatch
 
@@ -148,16 +162,23 @@ def train_sac(
     expert: Transitions | None,
     ratio: float,
     on_step: Callable[[int, SAC], None] | None = None,
+    checkpoint: FitCheckpoint | None = None,
 ) -> tuple[SAC, dict[str, float]]:
     """A SAC agent trained by `cfg.steps` calls of `update` on minibatches holding a share
     `ratio` of expert rows (none when `expert` is None: an oracle on relabeled data); the
     agent and the last update's numbers. `on_step(t, agent)` runs after update t
-    (1-based), as in `train_offline_td3`."""
+    (1-based), and `checkpoint` resumes and saves the loop, as in `train_offline_td3`."""
     agent = SAC(dataset, cfg, seed)
     sample = MixedSampler(dataset, expert, cfg.batch_size, ratio, agent.gen)
     last: dict[str, float] = {}
-    for t in range(1, cfg.steps + 1):
+    first = 1
+    if checkpoint is not None and (saved := checkpoint.resume("sac")) is not None:
+        agent.load_train_state(saved[1])
+        first, last = saved[0] + 1, saved[2]
+    for t in range(first, cfg.steps + 1):
         last = update(agent, sample())
+        if checkpoint is not None:
+            checkpoint.tick("sac", t, cfg.steps, agent.train_state, last)
         if on_step is not None:
             on_step(t, agent)
     return agent, {k: round(v, 5) for k, v in last.items()}

@@ -40,7 +40,13 @@ def fit(demos: Demos, context: FitContext) -> TrainedPolicy:
     cfg = BUDGETS[context.budget]
     expert = demo_transitions(demos)
     agent, info = train_sac(
-        context.dataset, sqil_update, cfg.sac, context.seed, expert, cfg.expert_ratio
+        context.dataset,
+        sqil_update,
+        cfg.sac,
+        context.seed,
+        expert,
+        cfg.expert_ratio,
+        checkpoint=context.checkpoint,
     )
     return TrainedPolicy("sqil", agent.act, agent.state(), info, agent.cfg.precision)
 

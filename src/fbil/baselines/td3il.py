@@ -49,6 +49,7 @@ def fit(demos: Demos, context: FitContext) -> TrainedPolicy:
         context.seed,
         expert=demo_transitions(demos),
         expert_ratio=cfg.expert_ratio,
+        checkpoint=context.checkpoint,
     )
     return TrainedPolicy("td3il", agent.act, agent_state(agent), info, agent.cfg.precision)
 

@@ -2,8 +2,10 @@
 
 Each finished job appends one JSON line to the results file (all inputs, returns, score,
 timings, commit, seed), flushed and fsynced, so a killed run loses at most the jobs in
-flight; a rerun skips every job already in the file. Jobs run in a local process pool
-(default) or on Ray, for grids that outgrow one machine.
+flight; a rerun skips every job already in the file. A method that trains saves its
+training loop every few minutes (`fit_checkpoint`), so a job killed in flight loses at
+most those minutes: the rerun resumes its training where it stopped. Jobs run in a local
+process pool (default) or on Ray, for grids that outgrow one machine.
 
 Ctrl-C (SIGINT) stops a run at once: queued jobs are dropped, running workers are
 terminated, and every line already written stays (a line being written is finished first).
@@ -11,6 +13,7 @@ terminated, and every line already written stays (a line being written is finish
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import signal
@@ -18,7 +21,7 @@ import threading
 import time
 from collections import deque
 from collections.abc import Callable, Iterator, Sequence
-from contextlib import contextmanager
+from contextlib import contextmanager, suppress
 from dataclasses import asdict, dataclass
 from functools import lru_cache
 from multiprocessing import get_context
@@ -33,6 +36,14 @@ from fbil.errors import FbilError
 
 BACKENDS = ("local", "ray")
 Record = Callable[[dict[str, Any]], None]  # called with each finished job's row
+
+
+@dataclass(frozen=True)
+class Shared:
+    """What every job of a run shares: the code's commit and the fits' checkpoint folder."""
+
+    commit: str
+    fits: str | None = None
 
 
 @dataclass(frozen=True)
@@ -227,8 +238,10 @@ def _dataset(path: str) -> Any:
     return load_dataset(path)
 
 
-def run_job(job: Job, commit: str = "unknown") -> dict[str, Any]:
-    """Imitate and evaluate one grid cell; the result is one JSON-able row."""
+def run_job(job: Job, commit: str = "unknown", fits: str | None = None) -> dict[str, Any]:
+    """Imitate and evaluate one grid cell; the result is one JSON-able row. `fits`: a
+    folder where a method that trains keeps its fit's checkpoint (`fit_checkpoint`), so
+    that a killed job resumes its training where it stopped."""
     from fbil.evaluation.evaluate import evaluate, expert_return
     from fbil.imitators import FitContext, get_imitator
 
@@ -245,6 +258,7 @@ def run_job(job: Job, commit: str = "unknown") -> dict[str, Any]:
         job.seed,
         goal_model=_goal_model(job.goal_model) if job.goal_model else None,
     )
+    checkpoint = fit_checkpoint(job, imitator, context, fits)
     out = evaluate(
         context.model,
         _demos(job.demos),
@@ -258,6 +272,7 @@ def run_job(job: Job, commit: str = "unknown") -> dict[str, Any]:
         budget=context.budget,
         skip_unfit=True,
         goal_model=context.goal_model,
+        checkpoint=checkpoint,
     )
     row: dict[str, Any] = asdict(job)
     row.update(expert_return=out["expert_return"], commit=commit, fbil_version=__version__)
@@ -275,7 +290,26 @@ def run_job(job: Job, commit: str = "unknown") -> dict[str, Any]:
     else:
         _add_result(row, job, out["results"][job.method])
     row["wall_seconds"] = round(time.perf_counter() - started, 3)
+    if checkpoint is not None:
+        if checkpoint.resumed_at:  # the steps its training resumed from, after kills
+            row["resumed_at"] = checkpoint.resumed_at
+        checkpoint.discard()
     return row
+
+
+def fit_checkpoint(job: Job, imitator: Any, context: Any, fits: str | None) -> Any:
+    """The checkpoint of `job`'s fit in the folder `fits`, for a method that trains;
+    its signature holds the job and the method's resolved settings and data, so a file
+    left by other code or data is never resumed."""
+    from fbil.checkpoint import FitCheckpoint
+
+    if fits is None or not imitator.budgets:
+        return None
+    digest = context.dataset.digest() if context.dataset is not None else None
+    signature = json.dumps([asdict(job), imitator.settings(context), digest], sort_keys=True)
+    name = hashlib.sha256(signature.encode()).hexdigest()[:16]
+    path = Path(fits) / f"{job.method}_{job.task}_d{job.draw}_s{job.seed}_{name}.safetensors"
+    return FitCheckpoint(path, signature)
 
 
 def _add_result(row: dict[str, Any], job: Job, r: Any) -> None:
@@ -332,7 +366,10 @@ def run_benchmark(
     threads: int = 1,
 ) -> list[dict[str, Any]]:
     """Run every job not yet in `out`, appending each result as it finishes (`threads`:
-    torch threads per worker)."""
+    torch threads per worker). The methods that train keep their fits' checkpoints in a
+    folder beside `out` (`.<name>.fits/`), so a job killed during its training resumes
+    there on the next run; a job's file goes when its line is written, the folder when
+    it is empty."""
     if backend not in BACKENDS:
         raise FbilError(f"unknown backend {backend!r}; valid: {', '.join(BACKENDS)}")
     if workers < 1 or threads < 1:
@@ -343,6 +380,7 @@ def run_benchmark(
     finished = {job_key(r) for r in done_rows}
     todo = [j for j in jobs if j.key not in finished]
     new_rows: list[dict[str, Any]] = []
+    fits = str(out.parent / f".{out.name}.fits")
 
     def record(fh: Any, row: dict[str, Any]) -> None:
         with _sigint_deferred():
@@ -355,13 +393,15 @@ def run_benchmark(
         if not todo:
             return []
         if backend == "ray":
-            _run_ray(todo, workers, threads, commit, lambda row: record(fh, row))
+            _run_ray(todo, workers, threads, Shared(commit, fits), lambda row: record(fh, row))
         elif workers == 1:
             _init_worker(threads)
             for job in todo:
-                record(fh, run_job(job, commit))
+                record(fh, run_job(job, commit, fits))
         else:
-            _run_pool(todo, workers, threads, commit, lambda row: record(fh, row))
+            _run_pool(todo, workers, threads, Shared(commit, fits), lambda row: record(fh, row))
+    with suppress(OSError):  # not empty (a job failed) or never made
+        Path(fits).rmdir()
     return new_rows
 
 
@@ -369,7 +409,7 @@ def _exit_on_sigterm(signum: int, frame: Any) -> None:
     raise SystemExit(128 + signum)  # a clean exit: no semaphores left to the tracker
 
 
-def _worker_loop(conn: Connection, threads: int, commit: str) -> None:
+def _worker_loop(conn: Connection, threads: int, shared: Shared) -> None:
     """A pool worker: run the jobs the parent sends until it sends None."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent alone handles Ctrl-C
     signal.signal(signal.SIGTERM, _exit_on_sigterm)
@@ -377,7 +417,7 @@ def _worker_loop(conn: Connection, threads: int, commit: str) -> None:
     try:
         while (job := conn.recv()) is not None:
             try:
-                result: tuple[bool, Any] = (True, run_job(job, commit))
+                result: tuple[bool, Any] = (True, run_job(job, shared.commit, shared.fits))
             except Exception as exc:  # re-raised in the parent, as a pool would
                 result = (False, exc)
             conn.send(result)
@@ -385,7 +425,7 @@ def _worker_loop(conn: Connection, threads: int, commit: str) -> None:
         return
 
 
-def _start_workers(n: int, threads: int, commit: str) -> dict[Connection, Any]:
+def _start_workers(n: int, threads: int, shared: Shared) -> dict[Connection, Any]:
     # spawn, not fork: a forked PyTorch with OpenMP threads can deadlock in the child.
     ctx = get_context("spawn")
     workers: dict[Connection, Any] = {}
@@ -396,7 +436,7 @@ def _start_workers(n: int, threads: int, commit: str) -> dict[Connection, Any]:
     try:
         for _ in range(n):
             conn, child = ctx.Pipe()
-            proc = ctx.Process(target=_worker_loop, args=(child, threads, commit), daemon=True)
+            proc = ctx.Process(target=_worker_loop, args=(child, threads, shared), daemon=True)
             proc.start()
             child.close()
             workers[conn] = proc
@@ -420,11 +460,13 @@ def _stop_workers(workers: dict[Connection, Any], grace: float = 0.0) -> None:
             proc.join()
 
 
-def _run_pool(jobs: Sequence[Job], workers: int, threads: int, commit: str, record: Record) -> None:
+def _run_pool(
+    jobs: Sequence[Job], workers: int, threads: int, shared: Shared, record: Record
+) -> None:
     """Jobs handed out one at a time from this process, so none is queued in a worker:
     stopping the run drops the queue here and terminates the workers."""
     queue = deque(jobs)
-    procs = _start_workers(min(workers, len(queue)), threads, commit)
+    procs = _start_workers(min(workers, len(queue)), threads, shared)
     try:
         busy = set(procs)
         for conn in busy:
@@ -450,7 +492,9 @@ def _run_pool(jobs: Sequence[Job], workers: int, threads: int, commit: str, reco
     _stop_workers(procs, grace=10.0)
 
 
-def _run_ray(jobs: Sequence[Job], workers: int, threads: int, commit: str, record: Record) -> None:
+def _run_ray(
+    jobs: Sequence[Job], workers: int, threads: int, shared: Shared, record: Record
+) -> None:
     try:
         import ray
     except ImportError:
@@ -468,7 +512,7 @@ def _run_ray(jobs: Sequence[Job], workers: int, threads: int, commit: str, recor
     @ray.remote(num_cpus=1)
     def remote_job(job: Job) -> dict[str, Any]:
         _init_worker(threads)
-        return run_job(job, commit)
+        return run_job(job, shared.commit, shared.fits)
 
     pending = [remote_job.remote(job) for job in jobs]
     try:

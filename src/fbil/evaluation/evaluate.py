@@ -173,14 +173,18 @@ def evaluate(
     budget: str = "cpu",
     skip_unfit: bool = False,
     goal_model: Any = None,
+    checkpoint: Any = None,
 ) -> dict[str, Any]:
     """Imitate draw `draw` of K demos with each method, evaluate, score against the expert
     (`expert`: its mean return from the standard start; default: the demos' own record).
     `model`: the FB model (FB-IL methods), `dataset`: the unsupervised dataset and
     `budget` (methods that train), `goal_model`: a pre-trained goal model (goal_td3).
     Methods the demos cannot serve (no actions) are skipped when named by a group ('all',
-    a family) or with `skip_unfit`, else refused."""
+    a family) or with `skip_unfit`, else refused. `checkpoint`: the fit's
+    `fbil.checkpoint.FitCheckpoint`, for one method that trains (`fbil benchmark`'s jobs)."""
     selection = resolve(methods)
+    if checkpoint is not None and len(selection.names) != 1:
+        raise FbilError("a fit checkpoint serves one method's fit; name one method")
     if episodes < 1:  # before any method trains (a baseline's fit takes minutes)
         raise FbilError(f"--episodes must be >= 1, got {episodes}")
     domain, task = demos_task(demos, model)
@@ -188,7 +192,15 @@ def evaluate(
     if expert <= 0:
         raise FbilError(f"the expert's mean return is {expert}; scores need a positive one")
     chosen = demo_draw(demos, k, draw)
-    context = FitContext(model, dataset, budget, seed, optimiser=optimiser, goal_model=goal_model)
+    context = FitContext(
+        model,
+        dataset,
+        budget,
+        seed,
+        optimiser=optimiser,
+        goal_model=goal_model,
+        checkpoint=checkpoint,
+    )
     fitted, skipped = fit_all(selection.names, chosen, context, skip_unfit or selection.group)
     results: dict[str, MethodResult] = {}
     if fitted:

@@ -55,6 +55,9 @@ class FitContext:
     threads: int = 1
     optimiser: Any = None  # fb-il: the z optimiser (None: its default)
     goal_model: Any = None  # goal-based BFMs (goal_td3): the pre-trained goal model
+    # Imitators that train for minutes: a `fbil.checkpoint.FitCheckpoint` their training
+    # loop saves to and resumes from (`fbil benchmark` gives one to each job); None: none.
+    checkpoint: Any = None
 
 
 @dataclass(frozen=True)
@@ -121,7 +124,11 @@ class Imitator:
         """Check, then fit and time: the seconds are the time to policy."""
         self.check(demos, context)
         started = time.perf_counter()
+        if context.checkpoint is not None:
+            context.checkpoint.begin()
         policy = self.fit_policy(demos, context)
+        if context.checkpoint is not None:  # a resumed fit counts its earlier processes' time
+            return Fitted(self.name, policy, context.checkpoint.seconds())
         return Fitted(self.name, policy, time.perf_counter() - started)
 
 
