@@ -202,23 +202,7 @@ def evaluate(
         checkpoint=checkpoint,
     )
     fitted, skipped = fit_all(selection.names, chosen, context, skip_unfit or selection.group)
-    results: dict[str, MethodResult] = {}
-    if fitted:
-        ep = rollout_policies([f.policy for f in fitted], domain, task, episodes, seed)
-        for i, f in enumerate(fitted):
-            r = ep.returns[i * episodes : (i + 1) * episodes]
-            results[f.name] = MethodResult(
-                f.name,
-                principle_of(f.name),
-                float(r.mean()),
-                float(r.std()),
-                float(r.mean() / expert),
-                f.seconds,
-                [float(x) for x in r],
-                ep.observation[i * episodes],
-                family_of(f.name),
-                ep.physics[i * episodes],
-            )
+    results = _rolled_out(fitted, domain, task, episodes, seed, expert)
     return {
         "domain": domain,
         "task": task,
@@ -229,3 +213,28 @@ def evaluate(
         "results": results,
         "skipped": skipped,
     }
+
+
+def _rolled_out(
+    fitted: Sequence[Any], domain: str, task: str, episodes: int, seed: int, expert: float
+) -> dict[str, MethodResult]:
+    """Each fitted policy's result over `episodes` episodes, all in one batched rollout."""
+    if not fitted:
+        return {}
+    results: dict[str, MethodResult] = {}
+    ep = rollout_policies([f.policy for f in fitted], domain, task, episodes, seed)
+    for i, f in enumerate(fitted):
+        r = ep.returns[i * episodes : (i + 1) * episodes]
+        results[f.name] = MethodResult(
+            f.name,
+            principle_of(f.name),
+            float(r.mean()),
+            float(r.std()),
+            float(r.mean() / expert),
+            f.seconds,
+            [float(x) for x in r],
+            ep.observation[i * episodes],
+            family_of(f.name),
+            ep.physics[i * episodes],
+        )
+    return results
