@@ -17,6 +17,7 @@ as training goes on.
 Usage: python scripts/td3il_diagnosis.py TASK [--ratio R] [--reward {01,true}] [--steps N]
        [--eval-at N1,N2] [--hidden H] [--max-episodes N] [--episodes 20] [--learner td3]
        [--domain point_mass_maze] [--data DIR] [--demos DIR] [--draw 0]
+       [--target-max X] [--bc-alpha A]   (TD3 only: TD targets clamped to [0, X]; TD3+BC)
 """
 
 from __future__ import annotations
@@ -65,6 +66,8 @@ def main() -> None:
     p.add_argument("--steps", type=int, default=td3il.BUDGETS["cpu"].td3.steps)
     p.add_argument("--eval-at", default="", help="comma-separated update counts < --steps")
     p.add_argument("--hidden", type=int, default=td3il.BUDGETS["cpu"].td3.hidden)
+    p.add_argument("--target-max", type=float, default=None, help="TD3: clamp targets to [0, X]")
+    p.add_argument("--bc-alpha", type=float, default=None, help="TD3: TD3+BC's alpha")
     p.add_argument("--max-episodes", type=int, default=None)
     p.add_argument("--episodes", type=int, default=20)
     p.add_argument("--domain", default="point_mass_maze")
@@ -77,9 +80,14 @@ def main() -> None:
         p.error(
             "--learner sac is the true-reward oracle: add --reward true (sqil is `fbil benchmark`)"
         )
+    if args.learner == "sac" and (args.target_max is not None or args.bc_alpha is not None):
+        p.error("--target-max and --bc-alpha change TD3 (--learner td3)")
     torch.set_num_threads(1)
     data = load_dataset(args.data, max_episodes=args.max_episodes)
     cfg = dataclasses.replace(td3il.BUDGETS["cpu"].td3, steps=args.steps, hidden=args.hidden)
+    if args.target_max is not None:
+        cfg = dataclasses.replace(cfg, target_min=0.0, target_max=args.target_max)
+    cfg = dataclasses.replace(cfg, bc_alpha=args.bc_alpha)
     expert: Transitions | None = None
     if args.reward == "01":
         expert = demo_transitions(
@@ -115,6 +123,8 @@ def main() -> None:
             "ratio": args.ratio if expert else None,
             "steps": steps,
             "hidden": args.hidden,
+            "target_max": args.target_max,
+            "bc_alpha": args.bc_alpha,
             "episodes_of_data": int(data.num_episodes),
             "return_mean": round(float(np.mean(ret)), 1),
             "return_std": round(float(np.std(ret)), 1),

@@ -50,6 +50,10 @@ class OfflineTD3Config:
     # Standardise the networks' inputs by the dataset's mean and std (TD3+BC); False feeds
     # raw states, as Meta's agent does (its first layer's layer norm + tanh only). Diagnostic.
     standardize: bool = True
+    # The TD target's clamp (TD3Config's): [0, 1/(1 - gamma)] bounds every value of a
+    # reward in [0, 1]. Diagnostic, off in every budget (cheetah's oracle diverged without).
+    target_min: float | None = None
+    target_max: float | None = None
 
     def td3(self, domain: str) -> TD3Config:
         return TD3Config(
@@ -64,6 +68,8 @@ class OfflineTD3Config:
             precision=self.precision,
             bc_alpha=self.bc_alpha,
             actor_q=self.actor_q,
+            target_min=self.target_min,
+            target_max=self.target_max,
         )
 
 
