@@ -287,6 +287,22 @@ def test_offline_td3_bc_alpha_reaches_the_actor_loss() -> None:
     assert with_bc >= -2.5 - 1e-5 and abs(with_bc - float(-q)) > 1e-6
 
 
+def test_offline_td3_target_clamp_bounds_the_critics_regression_target() -> None:
+    """`OfflineTD3Config.target_min/max` reach TD3: with rewards of 100 the TD target
+    stays at the clamp's top, so the critic loss is that of regressing onto 50."""
+    from fbil.agents.td3 import TD3
+    from fbil.baselines.offline_td3 import OfflineTD3Config
+
+    clamped = OfflineTD3Config(hidden=32, target_min=0.0, target_max=50.0).td3("cheetah")
+    assert (clamped.target_min, clamped.target_max) == (0.0, 50.0)
+    assert OfflineTD3Config().td3("cheetah").target_max is None
+    obs, act, eps = torch.randn(16, 4), torch.rand(16, 2) * 2 - 1, torch.zeros(16, 2)
+    rew, disc = torch.full((16,), 100.0), torch.ones(16)
+    agent = TD3(4, 2, clamped, seed=0)
+    loss, q = agent.critic_loss(obs, act, rew, obs, disc, eps)
+    assert abs(float(loss.detach()) - 2 * float(((q - 50.0) ** 2).mean())) < 1.0
+
+
 def test_offline_td3_policy_delay_sets_how_often_the_actor_and_targets_move() -> None:
     """`OfflineTD3Config.policy_delay` reaches TD3: at 1 the actor and the targets step
     with every critic step (Meta's DDPG-style agent), at 2 every second one (TD3); 0 is
