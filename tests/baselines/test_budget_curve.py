@@ -16,7 +16,6 @@ from fbil.errors import FbilError
 from fbil.evaluation.paper import PAPER_RETURNS
 from fbil.evaluation.report import write_report
 from fbil.imitators import FitContext, get_imitator, imitators, parse_budget, scale_steps
-from tests.baselines.test_baselines import demos_dir  # noqa: F401  (fixture)
 
 SCRIPT = Path(__file__).resolve().parents[2] / "scripts" / "budget_curve.py"
 TRAINED = [name for name, i in imitators().items() if i.budgets]
@@ -78,7 +77,7 @@ def test_the_named_budgets_are_unchanged() -> None:
 
 def test_fit_trains_for_the_scaled_steps(
     monkeypatch: pytest.MonkeyPatch,
-    demos_dir: Path,  # noqa: F811
+    demos_dir: Path,
 ) -> None:
     from fbil.baselines import bc
     from fbil.imitation import Demos
@@ -112,7 +111,7 @@ def test_bad_budget_specs_are_refused_in_one_line(spec: str, message: str) -> No
 
 def test_a_bad_spec_from_the_command_line_is_one_line_with_exit_code_2(
     capsys: pytest.CaptureFixture[str],
-    demos_dir: Path,  # noqa: F811
+    demos_dir: Path,
 ) -> None:
     from fbil.cli import main
 
@@ -137,7 +136,7 @@ def _args(demos: Path, out: Path, scales: str = "1", draws: str = "1") -> list[s
 
 
 @pytest.fixture(scope="module")
-def curve_dir(demos_dir: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:  # noqa: F811
+def curve_dir(demos_dir: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
     """The script at smoke@0.5 and smoke for bc on one task, 1 draw x 1 episode."""
     out = tmp_path_factory.mktemp("curve")
     args = _args(demos_dir, out, "0.5,1")
@@ -167,7 +166,7 @@ def test_the_script_writes_the_curve_and_its_figure(curve_dir: Path) -> None:
 
 def test_a_rerun_skips_finished_jobs_and_bad_scales_are_one_line(
     curve_dir: Path,
-    demos_dir: Path,  # noqa: F811
+    demos_dir: Path,
     capsys: pytest.CaptureFixture[str],
 ) -> None:
     before = (curve_dir / "results_smoke.jsonl").read_text()
@@ -212,7 +211,7 @@ def test_the_report_shows_the_curve_next_to_the_results(curve_dir: Path, tmp_pat
 
 def test_reuse_takes_the_matching_jobs_of_a_results_file_instead_of_running_them(
     curve_dir: Path,
-    demos_dir: Path,  # noqa: F811
+    demos_dir: Path,
     tmp_path: Path,
     capsys: pytest.CaptureFixture[str],
 ) -> None:
@@ -234,7 +233,7 @@ def test_reuse_takes_the_matching_jobs_of_a_results_file_instead_of_running_them
 
 def test_reuse_skips_lines_of_another_data_sample(
     curve_dir: Path,
-    demos_dir: Path,  # noqa: F811
+    demos_dir: Path,
     tmp_path: Path,
     capsys: pytest.CaptureFixture[str],
 ) -> None:
@@ -252,7 +251,7 @@ def test_reuse_skips_lines_of_another_data_sample(
 
 def test_merge_keeps_the_other_methods_with_their_tasks(
     curve_dir: Path,
-    demos_dir: Path,  # noqa: F811
+    demos_dir: Path,
     tmp_path: Path,
     capsys: pytest.CaptureFixture[str],
 ) -> None:

@@ -16,7 +16,6 @@ from fbil.errors import FbilError
 from fbil.evaluation.benchmark import make_jobs, run_job
 from fbil.imitators import FitContext, get_imitator, parse_budget
 from fbil.imitators.budgets import scaled_spec, split_settings, with_settings
-from tests.baselines.test_baselines import demos_dir  # noqa: F401  (fixture)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -120,7 +119,7 @@ def test_a_setting_the_method_lacks_is_refused_naming_the_method() -> None:
 
 def test_an_explicit_gradient_penalty_wins_over_table_2s(
     monkeypatch: pytest.MonkeyPatch,
-    demos_dir: Path,  # noqa: F811
+    demos_dir: Path,
     fixture_data: Path,
 ) -> None:
     from fbil.baselines import dice
@@ -143,7 +142,7 @@ def test_an_explicit_gradient_penalty_wins_over_table_2s(
 
 
 def test_the_spec_is_recorded_in_the_results_line(
-    demos_dir: Path,  # noqa: F811
+    demos_dir: Path,
     fixture_data: Path,
 ) -> None:
     jobs = make_jobs(
@@ -165,7 +164,7 @@ def test_the_spec_is_recorded_in_the_results_line(
 
 def test_set_from_the_command_line(
     capsys: pytest.CaptureFixture[str],
-    demos_dir: Path,  # noqa: F811
+    demos_dir: Path,
 ) -> None:
     from fbil.cli import main
 

@@ -29,7 +29,7 @@ from fbil.data import load_dataset
 from fbil.errors import FbilError
 from fbil.evaluation.benchmark import make_jobs, run_job
 from fbil.imitation.api import imitate
-from tests.baselines.test_baselines import demos_dir, fbil  # noqa: F401  (fixture)
+from tests.baselines.test_baselines import fbil
 
 SMALL = dataclasses.replace(goal_preset("point_mass_maze", "smoke"), checkpoint_seconds=1e9)
 
@@ -204,7 +204,7 @@ def test_the_goal_model_folder_loads_back_and_refuses_mismatches(
 
 def test_goal_td3_runs_end_to_end_from_the_command_line(
     fixture_data: Path,
-    demos_dir: Path,  # noqa: F811
+    demos_dir: Path,
     tmp_path: Path,
     capsys: pytest.CaptureFixture[str],
 ) -> None:
@@ -290,7 +290,7 @@ def test_the_actor_schedule_of_meta_goal_agent_can_be_set(
 
 def test_the_fixed_goal_check_scores_a_goal_model_and_refuses_a_missing_demo(
     fixture_data: Path,
-    demos_dir: Path,  # noqa: F811
+    demos_dir: Path,
     tmp_path: Path,
     capsys: pytest.CaptureFixture[str],
 ) -> None:

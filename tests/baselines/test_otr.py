@@ -12,7 +12,7 @@ from fbil.baselines.otr import OTRConfig, cosine_cost, otr_rewards, relabel, ret
 from fbil.data import load_dataset
 from fbil.data.oversample import oversample_crossings
 from fbil.imitation import from_arrays
-from tests.baselines.test_baselines import demos_dir, fbil  # noqa: F401  (fixture)
+from tests.baselines.test_baselines import fbil
 
 
 def test_the_reward_of_a_two_step_episode_matches_the_hand_computed_transport() -> None:
@@ -88,7 +88,7 @@ def test_the_return_span_option_stretches_episode_returns_to_the_span(fixture_da
 
 
 def test_otr_runs_end_to_end_from_the_command_line(
-    demos_dir: Path,  # noqa: F811
+    demos_dir: Path,
     fixture_data: Path,
 ) -> None:
     res = fbil(
