@@ -137,14 +137,15 @@ class SAC:
     def state(self) -> dict[str, Any]:
         return {"actor": self.actor.state_dict(), "obs_stats": self.stats}
 
+    TRAINED = ("actor", "critics", "targets", "actor_opt", "critic_opt", "alpha_opt")
+
     def train_state(self) -> dict[str, Any]:
         """Everything training changes: networks, targets, optimisers, temperature, RNG."""
-        nets = ("actor", "critics", "targets", "actor_opt", "critic_opt", "alpha_opt")
-        state = {name: getattr(self, name).state_dict() for name in nets}
+        state = {name: getattr(self, name).state_dict() for name in self.TRAINED}
         return {**state, "log_alpha": self.log_alpha.detach().clone(), "gen": self.gen.get_state()}
 
     def load_train_state(self, state: dict[str, Any]) -> None:
-        for name in ("actor", "critics", "targets", "actor_opt", "critic_opt", "alpha_opt"):
+        for name in self.TRAINED:
             getattr(self, name).load_state_dict(state[name])
         with torch.no_grad():
             self.log_alpha.copy_(state["log_alpha"])
