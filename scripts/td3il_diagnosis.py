@@ -18,6 +18,8 @@ Usage: python scripts/td3il_diagnosis.py TASK [--ratio R] [--reward {01,true}] [
        [--eval-at N1,N2] [--hidden H] [--max-episodes N] [--episodes 20] [--learner td3]
        [--domain point_mass_maze] [--data DIR] [--demos DIR] [--draw 0]
        [--target-max X] [--bc-alpha A]   (TD3 only: TD targets clamped to [0, X]; TD3+BC)
+       [--clamp-values]   (either learner: the budgets' `clamp_values`, from the reward's
+                           range: [0, 1] for the labels, [0, reward_max] for a true reward)
 """
 
 from __future__ import annotations
@@ -36,6 +38,7 @@ from fbil.baselines.common import TrainedPolicy, Transitions, dataset_rows, demo
 from fbil.baselines.offline_td3 import agent_state, train_offline_td3
 from fbil.baselines.sac import SAC, train_sac
 from fbil.data import load_dataset
+from fbil.envs.registry import get_task
 from fbil.envs.rollout import rollout
 from fbil.evaluation.evaluate import demo_draw
 from fbil.imitation import Demos
@@ -68,6 +71,7 @@ def main() -> None:
     p.add_argument("--hidden", type=int, default=td3il.BUDGETS["cpu"].td3.hidden)
     p.add_argument("--target-max", type=float, default=None, help="TD3: clamp targets to [0, X]")
     p.add_argument("--bc-alpha", type=float, default=None, help="TD3: TD3+BC's alpha")
+    p.add_argument("--clamp-values", action="store_true", help="clamp TD targets (either learner)")
     p.add_argument("--max-episodes", type=int, default=None)
     p.add_argument("--episodes", type=int, default=20)
     p.add_argument("--domain", default="point_mass_maze")
@@ -82,20 +86,23 @@ def main() -> None:
         )
     if args.learner == "sac" and (args.target_max is not None or args.bc_alpha is not None):
         p.error("--target-max and --bc-alpha change TD3 (--learner td3)")
+    if args.clamp_values and args.target_max is not None:
+        p.error("--clamp-values sets the clamp from the reward's range: drop --target-max")
     torch.set_num_threads(1)
     data = load_dataset(args.data, max_episodes=args.max_episodes)
     cfg = dataclasses.replace(td3il.BUDGETS["cpu"].td3, steps=args.steps, hidden=args.hidden)
     if args.target_max is not None:
         cfg = dataclasses.replace(cfg, target_min=0.0, target_max=args.target_max)
-    cfg = dataclasses.replace(cfg, bc_alpha=args.bc_alpha)
+    cfg = dataclasses.replace(cfg, bc_alpha=args.bc_alpha, clamp_values=args.clamp_values)
     expert: Transitions | None = None
     if args.reward == "01":
         expert = demo_transitions(
             demo_draw(Demos.load(f"{args.demos}/{args.task}.npz"), 1, args.draw)
         )
-        label = td3il.labels
+        label, reward_range = td3il.labels, td3il.LABEL_RANGE
     else:
         true = torch.from_numpy(data.reward(args.task))
+        reward_range = (0.0, get_task(args.domain, args.task).reward_max)
 
         def label(batch: Transitions) -> torch.Tensor:
             assert batch.index is not None
@@ -125,6 +132,7 @@ def main() -> None:
             "hidden": args.hidden,
             "target_max": args.target_max,
             "bc_alpha": args.bc_alpha,
+            "clamp_values": args.clamp_values,
             "episodes_of_data": int(data.num_episodes),
             "return_mean": round(float(np.mean(ret)), 1),
             "return_std": round(float(np.std(ret)), 1),
@@ -141,17 +149,23 @@ def main() -> None:
             report(t, agent, {})
 
     if args.learner == "sac":
-        sac_cfg = dataclasses.replace(sqil.BUDGETS["cpu"].sac, steps=args.steps, hidden=args.hidden)
+        sac_cfg = dataclasses.replace(
+            sqil.BUDGETS["cpu"].sac,
+            steps=args.steps,
+            hidden=args.hidden,
+            clamp_values=args.clamp_values,
+        )
 
         def update(agent: SAC, batch: Transitions) -> dict[str, float]:
             reward = label(batch).float()
             return {**agent.update(batch, reward), "reward_mean": float(reward.mean())}
 
-        sac, info = train_sac(data, update, sac_cfg, 0, None, 0.0, on_step)
+        sac, info = train_sac(data, update, sac_cfg, 0, None, 0.0, on_step, None, reward_range)
         report(args.steps, sac, info)
         return
+    ratio = args.ratio if expert else None
     agent, info = train_offline_td3(
-        data, label, cfg, 0, expert, args.ratio if expert else None, on_step
+        data, label, cfg, 0, expert, ratio, on_step, reward_range=reward_range
     )
     report(args.steps, agent, info)
 

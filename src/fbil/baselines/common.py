@@ -29,6 +29,18 @@ def paper_gamma(domain: str) -> float:
     return PAPER_GAMMA.get(domain, 0.98)
 
 
+def value_bounds(
+    reward_range: tuple[float, float], gamma: float, bonus: float = 0.0
+) -> tuple[float, float]:
+    """The interval that holds every discounted return sum_t gamma^t (r_t + bonus_t) of
+    rewards in `reward_range` and per-step bonuses at most `bonus` (from above only: SAC's
+    entropy term), episodes of any length included (so 0 lies inside)."""
+    lo, hi = reward_range
+    if not lo <= hi:
+        raise FbilError(f"reward range ({lo}, {hi}): the low end must not exceed the high end")
+    return min(0.0, lo) / (1 - gamma), max(0.0, hi + bonus) / (1 - gamma)
+
+
 @dataclass
 class Transitions:
     """Rows (s, a, s', discount); `expert` marks rows from the demonstrations."""

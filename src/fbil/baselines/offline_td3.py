@@ -14,7 +14,7 @@ from typing import Any, Literal
 import torch
 
 from fbil.agents.td3 import TD3, TD3Config
-from fbil.baselines.common import Transitions, dataset_rows, paper_gamma
+from fbil.baselines.common import Transitions, dataset_rows, paper_gamma, value_bounds
 from fbil.checkpoint import FitCheckpoint
 from fbil.errors import FbilError
 
@@ -54,13 +54,31 @@ class OfflineTD3Config:
     # reward in [0, 1]. Diagnostic, off in every budget (cheetah's oracle diverged without).
     target_min: float | None = None
     target_max: float | None = None
+    # Clamp the TD target to the values the method's rewards allow (`value_bounds` of the
+    # reward range each method declares: td3il [0, 1], ORIL (0, log 2), OTR its table's);
+    # False: no clamp. Cheetah's critics diverge without it (docs/cheetah.md, session 53).
+    clamp_values: bool = False
 
-    def td3(self, domain: str) -> TD3Config:
+    def __post_init__(self) -> None:
+        if self.clamp_values and (self.target_min is not None or self.target_max is not None):
+            raise FbilError(
+                "clamp_values derives target_min/target_max from the reward range; "
+                "set one or the other, not both"
+            )
+
+    def td3(self, domain: str, reward_range: tuple[float, float] | None = None) -> TD3Config:
+        """The agent's settings; `reward_range` (the method's) sets the clamp when
+        `clamp_values` is on."""
+        gamma, lo, hi = paper_gamma(domain), self.target_min, self.target_max
+        if self.clamp_values:
+            if reward_range is None:
+                raise FbilError("clamp_values needs the method's reward range; this one has none")
+            lo, hi = value_bounds(reward_range, gamma)
         return TD3Config(
             hidden=self.hidden,
             batch_size=self.batch_size,
             lr=self.lr,
-            gamma=paper_gamma(domain),
+            gamma=gamma,
             tau=self.tau,
             policy_noise=self.policy_noise,
             noise_clip=self.noise_clip,
@@ -68,8 +86,8 @@ class OfflineTD3Config:
             precision=self.precision,
             bc_alpha=self.bc_alpha,
             actor_q=self.actor_q,
-            target_min=self.target_min,
-            target_max=self.target_max,
+            target_min=lo,
+            target_max=hi,
         )
 
 
@@ -129,13 +147,15 @@ def train_offline_td3(
     expert_ratio: float | None = None,
     on_step: Callable[[int, TD3], None] | None = None,
     checkpoint: FitCheckpoint | None = None,
+    reward_range: tuple[float, float] | None = None,
 ) -> tuple[TD3, dict[str, float]]:
     """TD3 trained for `config.steps` updates on relabeled minibatches; the agent and the
     last update's numbers (critic loss, mean Q, mean reward). `on_step(t, agent)` runs
     after update t (1-based): a diagnostic's budget curve within one run. `checkpoint`:
     the loop resumes from it and saves to it (the agent's state holds the sampler's RNG,
-    so a resumed run is the same run)."""
-    spec = config.td3(dataset.domain)
+    so a resumed run is the same run). `reward_range`: the bounds of `label`'s rewards
+    (for `config.clamp_values`)."""
+    spec = config.td3(dataset.domain, reward_range)
     agent = TD3(dataset.observation.shape[1], dataset.action.shape[1], spec, seed)
     if config.standardize:
         agent.set_obs_stats(dataset.observation)

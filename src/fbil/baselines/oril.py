@@ -10,6 +10,7 @@ demonstrations and the dataset; the action-free variants on the dataset alone.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
@@ -32,6 +33,7 @@ from fbil.imitators.base import FitContext, Imitator
 from fbil.imitators.budgets import Budgets
 
 INPUTS = {"oril": "sa", "oril_o": "s", "oril_oo": "ss"}
+REWARD_RANGE = (0.0, math.log(2.0))  # of r = log(D + 1), D in (0, 1)
 
 
 @dataclass(frozen=True)
@@ -155,6 +157,7 @@ def _imitator(name: str) -> Imitator:
             context.seed,
             expert=demo_transitions(demos) if kind == "sa" else None,
             checkpoint=context.checkpoint,
+            reward_range=REWARD_RANGE,
         )
         return TrainedPolicy(name, agent.act, agent_state(agent), info, agent.cfg.precision)
 

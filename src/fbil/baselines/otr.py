@@ -161,7 +161,12 @@ def fit(demos: Demos, context: FitContext) -> TrainedPolicy:
         return rewards[batch.index]
 
     agent, info = train_offline_td3(
-        context.dataset, label, cfg.td3, context.seed, checkpoint=context.checkpoint
+        context.dataset,
+        label,
+        cfg.td3,
+        context.seed,
+        checkpoint=context.checkpoint,
+        reward_range=(float(rewards.min()), float(rewards.max())),
     )
     info["otr_reward_mean"] = round(float(rewards.mean()), 5)
     info["otr_reward_max"] = round(float(rewards.max()), 5)

@@ -3,6 +3,7 @@ tanh-Gaussian actor and a learned (or fixed) temperature, on standardised states
 
 For a batch (s, a, r, s', discount), with a' ~ pi(.|s') and a~ ~ pi(.|s) reparametrised:
   y      = r + gamma * discount * (min_i Q'_i(s', a') - alpha * log pi(a'|s'))
+           (optionally clamped from above by the largest soft value: `clamp_values`)
   critic = sum_i mean (Q_i(s, a) - y)^2
   actor  = mean (alpha * log pi(a~|s) - min_i Q_i(s, a~))
   temp.  = -mean log_alpha * (log pi(a~|s) + target_entropy)   (target_entropy = -act_dim)
@@ -26,9 +27,10 @@ from torch.nn import functional as F
 
 from fbil.agents.td3 import _mlp, run_mlp
 from fbil.baselines.bc import LOG_STD
-from fbil.baselines.common import Transitions, paper_gamma, standardiser
+from fbil.baselines.common import Transitions, paper_gamma, standardiser, value_bounds
 from fbil.baselines.offline_td3 import MixedSampler
 from fbil.checkpoint import FitCheckpoint
+from fbil.errors import FbilError
 
 
 @dataclass(frozen=True)
@@ -46,6 +48,10 @@ class SACConfig:
     # bf16 autocast on the hidden layers (last layers, losses and Adam in fp32), as
     # `OfflineTD3Config.precision`; "fp32": plain.
     precision: Literal["fp32", "bf16"] = "bf16"
+    # Clamp the soft TD target from above by the largest soft value the method's rewards
+    # allow (`value_bounds` with the entropy bonus alpha * act_dim * log 2, the most a policy
+    # on [-1, 1]^act_dim earns); False: no clamp. Not for IQ-Learn (no reward).
+    clamp_values: bool = False
 
 
 class SAC:
@@ -65,6 +71,16 @@ class SAC:
         self.critic_opt = torch.optim.Adam(self.critics.parameters(), lr=cfg.lr, fused=True)
         self.alpha_opt = torch.optim.Adam([self.log_alpha], lr=cfg.lr)
         self.gen = torch.Generator().manual_seed(seed)
+        self.reward_range: tuple[float, float] | None = None  # set for `cfg.clamp_values`
+
+    def target_max(self) -> float | None:
+        """The clamp of the soft TD target (`SACConfig.clamp_values`), or None."""
+        if not self.cfg.clamp_values:
+            return None
+        if self.reward_range is None:
+            raise FbilError("clamp_values needs the method's reward range; this one has none")
+        bonus = float(self.alpha) * self.act_dim * math.log(2.0)
+        return value_bounds(self.reward_range, self.gamma, bonus)[1]
 
     @property
     def alpha(self) -> torch.Tensor:
@@ -122,6 +138,8 @@ class SAC:
         with torch.no_grad():
             soft = self.soft_value(batch.next_obs, self.targets)
             y = reward + self.gamma * batch.discount * soft
+            if (top := self.target_max()) is not None:
+                y = y.clamp(max=top)
         q = self.q(self.critics, batch.obs, batch.action)
         critic_loss = self.step(self.critic_opt, ((q - y[:, None]) ** 2).mean(0).sum())
         q_mean = float(q.detach().mean())
@@ -164,12 +182,16 @@ def train_sac(
     ratio: float,
     on_step: Callable[[int, SAC], None] | None = None,
     checkpoint: FitCheckpoint | None = None,
+    reward_range: tuple[float, float] | None = None,
 ) -> tuple[SAC, dict[str, float]]:
     """A SAC agent trained by `cfg.steps` calls of `update` on minibatches holding a share
     `ratio` of expert rows (none when `expert` is None: an oracle on relabeled data); the
     agent and the last update's numbers. `on_step(t, agent)` runs after update t
-    (1-based), and `checkpoint` resumes and saves the loop, as in `train_offline_td3`."""
+    (1-based), and `checkpoint` resumes and saves the loop, as in `train_offline_td3`.
+    `reward_range`: the bounds of the rewards `update` uses (for `cfg.clamp_values`)."""
     agent = SAC(dataset, cfg, seed)
+    agent.reward_range = reward_range
+    agent.target_max()  # a clamp without a reward range fails here, before any update
     sample = MixedSampler(dataset, expert, cfg.batch_size, ratio, agent.gen)
     last: dict[str, float] = {}
     first = 1

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 
 from fbil.baselines.common import TrainedPolicy, Transitions, demo_transitions, trained_imitator
 from fbil.baselines.sac import SAC, SACConfig, train_sac
-from fbil.baselines.td3il import labels
+from fbil.baselines.td3il import LABEL_RANGE, labels
 from fbil.imitation.demos import Demos
 from fbil.imitators.base import FitContext
 from fbil.imitators.budgets import Budgets
@@ -47,6 +47,7 @@ def fit(demos: Demos, context: FitContext) -> TrainedPolicy:
         expert,
         cfg.expert_ratio,
         checkpoint=context.checkpoint,
+        reward_range=LABEL_RANGE,
     )
     return TrainedPolicy("sqil", agent.act, agent.state(), info, agent.cfg.precision)
 

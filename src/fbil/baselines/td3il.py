@@ -40,6 +40,9 @@ def labels(batch: Transitions) -> torch.Tensor:
     return batch.expert.float()
 
 
+LABEL_RANGE = (0.0, 1.0)  # the bounds of `labels`
+
+
 def fit(demos: Demos, context: FitContext) -> TrainedPolicy:
     cfg = BUDGETS[context.budget]
     agent, info = train_offline_td3(
@@ -50,6 +53,7 @@ def fit(demos: Demos, context: FitContext) -> TrainedPolicy:
         expert=demo_transitions(demos),
         expert_ratio=cfg.expert_ratio,
         checkpoint=context.checkpoint,
+        reward_range=LABEL_RANGE,
     )
     return TrainedPolicy("td3il", agent.act, agent_state(agent), info, agent.cfg.precision)
 
