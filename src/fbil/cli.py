@@ -395,6 +395,7 @@ def _cmd_imitate(args: argparse.Namespace) -> int:
             "seconds": round(f.seconds, 4),
             **f.policy.describe(),
         }
+        _note_divergence(f.name, results[f.name])
     results = {m: results[m] for m in selection.names}  # in the order asked for
     if args.out:
         out = Path(args.out)
@@ -479,6 +480,17 @@ def get_domain_tasks(domain: str) -> list[str]:
     return get_domain(domain).task_names
 
 
+def _note_divergence(method: str, fit: dict[str, Any]) -> None:
+    """A note on stderr when a trained learner's critic ran away (`value_check`)."""
+    if fit.get("q_diverged"):
+        print(
+            f"fbil: note: {method}'s critic ran away (mean Q {fit['q']:.1f}, above twice the "
+            f"{fit['q_bound']:.1f} its rewards allow), so its policy is unreliable; add "
+            "td3.clamp_values=true (sac.clamp_values=true for sqil) to --budget",
+            file=sys.stderr,
+        )
+
+
 def _cmd_evaluate(args: argparse.Namespace) -> int:
     from fbil.checkpoint import atomic_write_text
     from fbil.evaluation.evaluate import evaluate
@@ -500,6 +512,8 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
         goal_model=context.goal_model,
     )
     methods = {m: r.as_dict() for m, r in out["results"].items()}
+    for m, r in out["results"].items():
+        _note_divergence(m, r.fit)
     for m in methods:  # the methods that train: their budget and its whole configuration
         if get_imitator(m).budgets:
             methods[m].update(get_imitator(m).settings(context))

@@ -160,6 +160,10 @@ def test_benchmark_rows_carry_family_budget_and_config(demos_dir: Path, fixture_
     assert bc["data_digest"] is None
     assert td3il["data_digest"] == load_dataset(fixture_data).digest()
     assert bc["machine"] == td3il["machine"] and bc["machine"].strip()
+    # The learner's last update, with the largest value its 0/1 rewards allow at the
+    # maze's gamma 0.99 and whether its critic ran past twice that.
+    assert td3il["fit"]["q_bound"] == pytest.approx(100.0) and td3il["fit"]["q_diverged"] == 0.0
+    assert "q_bound" not in bc["fit"]
 
 
 @pytest.mark.parametrize(

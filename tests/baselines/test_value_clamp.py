@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 import torch
 
-from fbil.baselines.common import Transitions, value_bounds
+from fbil.baselines.common import Transitions, value_bounds, value_check
 from fbil.baselines.offline_td3 import OfflineTD3Config
 from fbil.baselines.sac import SAC, SACConfig
 from fbil.data import load_dataset
@@ -131,3 +131,39 @@ def test_iqlearn_refuses_a_clamp_it_has_no_reward_for(demos_dir: Path, fixture_d
     context = FitContext(dataset=load_dataset(fixture_data), budget="smoke,sac.clamp_values=true")
     with pytest.raises(FbilError, match="needs the method's reward range"):
         get_imitator("iqlearn").fit(demos, context)
+
+
+def test_value_check_flags_a_critic_above_twice_its_bound() -> None:
+    assert value_check({"q": 1693.9}, 50.0) == {"q": 1693.9, "q_bound": 50.0, "q_diverged": 1.0}
+    assert value_check({"q": 60.0}, 50.0)["q_diverged"] == 0.0  # a little over: estimation
+    assert value_check({"loss": 1.0}, 50.0) == {"loss": 1.0, "q_bound": 50.0}
+
+
+def test_imitate_and_evaluate_note_a_runaway_critic(
+    demos_dir: Path,
+    fixture_data: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+    smoke_model_dir: Path,
+) -> None:
+    """A learner whose critic ran away (forced here: the check sees Q at 10x its bound)
+    gets one `fbil: note:` line naming the method and the budget setting that clamps it;
+    a sane one gets none."""
+    from fbil.baselines import offline_td3
+    from fbil.cli import main
+
+    demos = str(demos_dir / "square.npz")
+    common = ["--methods", "td3il", "--data", str(fixture_data), "--budget", "smoke"]
+    assert main(["imitate", str(smoke_model_dir), demos, *common]) == 0
+    assert "ran away" not in capsys.readouterr().err
+
+    def runaway(info: dict[str, float], bound: float) -> dict[str, float]:
+        return value_check({**info, "q": 10 * bound}, bound)
+
+    monkeypatch.setattr(offline_td3, "value_check", runaway)
+    assert main(["imitate", str(smoke_model_dir), demos, *common]) == 0
+    evaluate = ["evaluate", str(smoke_model_dir), demos, *common, "--episodes", "1"]
+    assert main(evaluate) == 0
+    notes = [line for line in capsys.readouterr().err.splitlines() if "ran away" in line]
+    assert len(notes) == 2 and all(n.startswith("fbil: note: td3il's critic") for n in notes)
+    assert all("td3.clamp_values=true" in n for n in notes)

@@ -14,7 +14,13 @@ from typing import Any, Literal
 import torch
 
 from fbil.agents.td3 import TD3, TD3Config
-from fbil.baselines.common import Transitions, dataset_rows, paper_gamma, value_bounds
+from fbil.baselines.common import (
+    Transitions,
+    dataset_rows,
+    paper_gamma,
+    value_bounds,
+    value_check,
+)
 from fbil.checkpoint import FitCheckpoint
 from fbil.errors import FbilError
 
@@ -176,7 +182,10 @@ def train_offline_td3(
             checkpoint.tick("td3", t, config.steps, agent.state, last)
         if on_step is not None:
             on_step(t, agent)
-    return agent, {k: round(v, 5) for k, v in last.items()}
+    info = {k: round(v, 5) for k, v in last.items()}
+    if reward_range is not None:
+        info = value_check(info, value_bounds(reward_range, spec.gamma)[1])
+    return agent, info
 
 
 def agent_state(agent: TD3) -> dict[str, Any]:

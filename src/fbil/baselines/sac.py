@@ -27,7 +27,13 @@ from torch.nn import functional as F
 
 from fbil.agents.td3 import _mlp, run_mlp
 from fbil.baselines.bc import LOG_STD
-from fbil.baselines.common import Transitions, paper_gamma, standardiser, value_bounds
+from fbil.baselines.common import (
+    Transitions,
+    paper_gamma,
+    standardiser,
+    value_bounds,
+    value_check,
+)
 from fbil.baselines.offline_td3 import MixedSampler
 from fbil.checkpoint import FitCheckpoint
 from fbil.errors import FbilError
@@ -73,14 +79,21 @@ class SAC:
         self.gen = torch.Generator().manual_seed(seed)
         self.reward_range: tuple[float, float] | None = None  # set for `cfg.clamp_values`
 
+    def value_max(self) -> float | None:
+        """The largest soft value `reward_range` allows, with the entropy bonus at the
+        current temperature; None without a range."""
+        if self.reward_range is None:
+            return None
+        bonus = float(self.alpha) * self.act_dim * math.log(2.0)
+        return value_bounds(self.reward_range, self.gamma, bonus)[1]
+
     def target_max(self) -> float | None:
         """The clamp of the soft TD target (`SACConfig.clamp_values`), or None."""
         if not self.cfg.clamp_values:
             return None
-        if self.reward_range is None:
+        if (top := self.value_max()) is None:
             raise FbilError("clamp_values needs the method's reward range; this one has none")
-        bonus = float(self.alpha) * self.act_dim * math.log(2.0)
-        return value_bounds(self.reward_range, self.gamma, bonus)[1]
+        return top
 
     @property
     def alpha(self) -> torch.Tensor:
@@ -204,4 +217,7 @@ def train_sac(
             checkpoint.tick("sac", t, cfg.steps, agent.train_state, last)
         if on_step is not None:
             on_step(t, agent)
-    return agent, {k: round(v, 5) for k, v in last.items()}
+    info = {k: round(v, 5) for k, v in last.items()}
+    if (top := agent.value_max()) is not None:
+        info = value_check(info, top)
+    return agent, info

@@ -323,6 +323,8 @@ def _add_result(row: dict[str, Any], job: Job, r: Any) -> None:
         score=r.score,
         seconds=r.seconds,
     )
+    if r.fit:
+        row["fit"] = r.fit
     pictures = get_domain(job.domain).hooks.pictures
     kept = None
     if pictures is not None and job.draw == 0:

@@ -9,7 +9,7 @@ policy-call rows, not Python loops."""
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -115,6 +115,9 @@ class MethodResult:
     trajectory: np.ndarray  # observations of the first evaluation episode (T+1, obs_dim)
     family: str = "fb-il"
     physics: np.ndarray | None = None  # its physics states (T+1, physics_dim)
+    # The fitted policy's own summary (`Policy.describe`): z for FB-IL; a trained
+    # learner's last update, with `q_diverged` where its rewards bound its values.
+    fit: dict[str, Any] = field(default_factory=dict)
 
     def as_dict(self) -> dict[str, Any]:
         return {
@@ -236,5 +239,6 @@ def _rolled_out(
             ep.observation[i * episodes],
             family_of(f.name),
             ep.physics[i * episodes],
+            f.policy.describe(),
         )
     return results
