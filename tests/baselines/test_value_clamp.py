@@ -1,6 +1,7 @@
 """`clamp_values`: the TD targets of the TD3- and SAC-based baselines clamped to the values
 their rewards allow (cheetah's offline critics diverge without; docs/cheetah.md)."""
 
+import dataclasses
 import math
 from pathlib import Path
 
@@ -167,3 +168,15 @@ def test_imitate_and_evaluate_note_a_runaway_critic(
     notes = [line for line in capsys.readouterr().err.splitlines() if "ran away" in line]
     assert len(notes) == 2 and all(n.startswith("fbil: note: td3il's critic") for n in notes)
     assert all("td3.clamp_values=true" in n for n in notes)
+
+
+def test_goal_td3_clamp_values_bounds_the_goal_reward_values() -> None:
+    """GOAL-TD3's 0/1 goal reward gives [0, 1/(1 - gamma)]; with explicit bounds it is
+    refused."""
+    from fbil.baselines.goal_td3 import GoalTD3Config, goal_preset
+
+    cfg = dataclasses.replace(goal_preset("cheetah", "cpu"), clamp_values=True)
+    assert (cfg.td3().target_min, cfg.td3().target_max) == pytest.approx((0.0, 50.0))
+    assert goal_preset("cheetah", "cpu").td3().target_max is None
+    with pytest.raises(FbilError, match="one or the other"):
+        GoalTD3Config(clamp_values=True, target_max=50.0)

@@ -30,7 +30,7 @@ import numpy as np
 import torch
 
 from fbil.agents.td3 import TD3Config
-from fbil.baselines.common import paper_gamma, standardiser
+from fbil.baselines.common import paper_gamma, standardiser, value_bounds
 from fbil.baselines.goal_model import GoalModel, GoalModelConfig, goal_agent
 from fbil.checkpoint import atomic_write_text, load_state, save_state
 from fbil.csvlog import last_wall_seconds, truncate_log
@@ -72,6 +72,9 @@ class GoalTD3Config:
     actor_q: str = "q1"
     target_min: float | None = None  # the TD target's clamp (TD3Config's); for the 0/1
     target_max: float | None = None  # goal reward, [0, 1/(1 - gamma)] bounds every fixed point
+    # That clamp, [0, 1/(1 - gamma)], set from the 0/1 reward (`value_bounds`), as the
+    # offline-IL baselines' `clamp_values`; False: none (cheetah's offline critics diverge).
+    clamp_values: bool = False
     # TD3+BC's alpha on the actor (TD3Config's; the dataset's action is the BC target):
     # keeps pi(s, g) near the data's actions where the critic extrapolates. Diagnostic.
     bc_alpha: float | None = None
@@ -100,13 +103,19 @@ class GoalTD3Config:
             raise FbilError(f"epsilon_horizon must be >= 1 step, got {self.epsilon_horizon}")
         if self.distance not in DISTANCES:
             raise FbilError(f"unknown distance {self.distance!r}; valid: {', '.join(DISTANCES)}")
+        if self.clamp_values and (self.target_min is not None or self.target_max is not None):
+            raise FbilError("clamp_values sets target_min/target_max: set one or the other")
 
     def td3(self) -> TD3Config:
         """The TD3 settings; its one learning rate is the critic's (the trainer sets the
         actor's)."""
         same: tuple[str, ...] = ("hidden", "batch_size", "gamma", "tau", "policy_noise")
         same += ("noise_clip", "policy_delay", "actor_q", "target_min", "target_max", "bc_alpha")
-        return TD3Config(lr=self.critic_lr, **{k: getattr(self, k) for k in same})
+        settings = {k: getattr(self, k) for k in same}
+        if self.clamp_values:
+            lo, hi = value_bounds((0.0, 1.0), self.gamma)  # the reward of `goal_reward`
+            settings.update(target_min=lo, target_max=hi)
+        return TD3Config(lr=self.critic_lr, **settings)
 
 
 PRESETS = ("cpu", "smoke")
