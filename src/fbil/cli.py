@@ -516,7 +516,8 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
         _note_divergence(m, r.fit)
     for m in methods:  # the methods that train: their budget and its whole configuration
         if get_imitator(m).budgets:
-            methods[m].update(get_imitator(m).settings(context))
+            imitator = get_imitator(m)
+            methods[m].update(imitator.settings(imitator.resolved(context, out["domain"])))
     methods.update({m: {"skipped": why} for m, why in out["skipped"].items()})
     keys = ("expert_return", "task", "k", "episodes")
     payload = json.dumps({**{key: out[key] for key in keys}, "methods": methods})
@@ -826,9 +827,10 @@ def _add_training_inputs(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument(
         "--budget",
-        default="cpu",
-        help="training budget of methods that train: cpu, or smoke (seconds, for tests); "
-        "NAME@SCALE multiplies its gradient steps (cpu@0.5, cpu@2)",
+        default="auto",
+        help="training budget of methods that train: auto (the one measured for the method "
+        "on the domain, else cpu), cpu, or smoke (seconds, for tests); NAME@SCALE multiplies "
+        "its gradient steps (cpu@0.5, cpu@2) (default: auto)",
     )
     p.add_argument(
         "--set",

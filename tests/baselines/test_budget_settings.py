@@ -15,7 +15,7 @@ from fbil.config import override, setting_paths
 from fbil.errors import FbilError
 from fbil.evaluation.benchmark import make_jobs, run_job
 from fbil.imitators import FitContext, get_imitator, parse_budget
-from fbil.imitators.budgets import scaled_spec, split_settings, with_settings
+from fbil.imitators.budgets import resolve_auto, scaled_spec, split_settings, with_settings
 
 
 @dataclasses.dataclass(frozen=True)
@@ -182,3 +182,33 @@ def test_set_from_the_command_line(
     assert main([*args, *out]) == 0
     bc = json.loads(capsys.readouterr().out)["methods"]["bc"]
     assert bc["budget"] == "smoke@0.1,lr=0.002" and bc["config"]["lr"] == 0.002
+
+
+def test_auto_budget_is_the_one_measured_for_the_method_on_the_domain() -> None:
+    """`auto` resolves per method and domain through the domain's `baseline_budgets`
+    hook, keeps changed settings after the measured ones, and falls back to `cpu`."""
+    assert resolve_auto("auto", "td3il", "walker") == "cpu@5"
+    assert resolve_auto("auto", "iqlearn", "walker") == "cpu,sac.steps=200000"
+    assert resolve_auto("auto", "otr", "cheetah") == "cpu@6,td3.clamp_values=true"
+    assert resolve_auto("auto,td3.tau=0.02", "oril", "walker") == "cpu@5,td3.tau=0.02"
+    assert resolve_auto("auto", "td3il", "point_mass_maze") == "cpu"  # none measured
+    assert resolve_auto("auto", "bc", "walker") == "cpu"
+    assert resolve_auto("auto", "td3il", None) == "cpu"
+    assert resolve_auto("cpu@2", "td3il", "walker") == "cpu@2"  # an explicit spec stays
+    td3il, erfb = get_imitator("td3il"), get_imitator("erfb")
+    assert td3il.resolved(FitContext(), "cheetah").budget == "cpu@6,td3.clamp_values=true"
+    assert td3il.settings(td3il.resolved(FitContext(), "walker"))["config"]["td3"]["steps"] == (
+        250_000
+    )
+    assert erfb.resolved(FitContext(), "walker") == FitContext()  # no budget: unchanged
+
+
+def test_benchmark_jobs_hold_the_resolved_budget(tmp_path: Path) -> None:
+    """`fbil benchmark`'s jobs (and so their keys and lines) hold the budget that runs,
+    not `auto`: walker's td3il at cpu@5, bc at cpu, an FB-IL method none."""
+    demos = Path(__file__).parents[2] / "artifacts" / "demos" / "walker"
+    jobs = make_jobs(
+        tmp_path, demos, "walker", ["stand"], ["td3il", "bc", "erfb"], 1, 1, 1,
+        data=tmp_path, budget="auto",
+    )  # fmt: skip
+    assert {j.method: j.budget for j in jobs} == {"td3il": "cpu@5", "bc": "cpu", "erfb": None}

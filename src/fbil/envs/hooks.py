@@ -12,6 +12,8 @@ hook the domain leaves out means "not defined here". The maze's hooks live in
 - `oversampling`: windows cut around a domain's rare, informative transitions.
 - `pictures`: `fbil render`'s picture of a policy, and the report's picture of a
   demonstration against each imitation method's rollout.
+- `baseline_budgets`: the training budget measured for a baseline on this domain (method
+  -> budget spec, from its true-reward oracle's curve), which `--budget auto` picks.
 """
 
 from __future__ import annotations
@@ -122,3 +124,4 @@ class DomainHooks:
     coverage: Coverage | None = None
     oversampling: Oversampling | None = None
     pictures: Pictures | None = None
+    baseline_budgets: Mapping[str, str] = field(default_factory=dict)

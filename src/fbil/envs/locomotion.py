@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -109,9 +109,12 @@ class Locomotion:
     # (N, obs_dim) -> (N, physics_dim), for domains whose observation holds the whole
     # pose (all but the horizontal position, which the tracking camera ignores)
     physics_from_observation: Callable[[np.ndarray], np.ndarray] | None = None
+    # method -> its budget spec measured on this domain (`DomainHooks.baseline_budgets`)
+    baseline_budgets: Mapping[str, str] = field(default_factory=dict)
 
     def hooks(self) -> DomainHooks:
         return DomainHooks(
+            baseline_budgets=self.baseline_budgets,
             starts={"shifted": self.shifted_starts},
             coverage=Coverage(self.coverage_summary, self.coverage_text, self.plot_coverage),
             pictures=Pictures(

@@ -73,9 +73,11 @@ def _job_inputs(
     data: str | Path | None,
     budget: str,
     goal_model: str | Path | None,
+    domain: str,
 ) -> dict[str, tuple[str | None, str | None, str | None]]:
     """Per method, the (data, budget, goal model) of its jobs: those it uses, else None
-    (checked: a method that needs one of them refuses its absence)."""
+    (checked: a method that needs one of them refuses its absence). An `auto` budget is
+    resolved here, per method and domain, so jobs and lines hold the budget that ran."""
     from fbil.imitators import FitContext, get_imitator
     from fbil.imitators.base import check_settings_used
 
@@ -83,10 +85,11 @@ def _job_inputs(
     inputs = {}
     for method in methods:
         imitator = get_imitator(method)
-        imitator.require(FitContext(model, data, budget, goal_model=goal_model))
+        context = imitator.resolved(FitContext(model, data, budget, goal_model=goal_model), domain)
+        imitator.require(context)
         inputs[method] = (
             str(data) if imitator.needs_dataset else None,
-            budget if imitator.budgets else None,
+            context.budget if imitator.budgets else None,
             str(goal_model) if imitator.needs_goal_model else None,
         )
     return inputs
@@ -128,7 +131,7 @@ def make_jobs(
     seed: int = 0,
     demo_set: str = "standard",
     data: str | Path | None = None,
-    budget: str = "cpu",
+    budget: str = "auto",
     goal_model: str | Path | None = None,
     first_draw: int = 0,
 ) -> list[Job]:
@@ -140,7 +143,7 @@ def make_jobs(
         raise FbilError("--draws, --k and --episodes must all be >= 1")
     if first_draw < 0:
         raise FbilError(f"--first-draw must be >= 0 (0: the first draw), got {first_draw}")
-    inputs = _job_inputs(methods, model, data, budget, goal_model)
+    inputs = _job_inputs(methods, model, data, budget, goal_model, domain)
     demos_dir = Path(demos_dir)
     jobs = []
     for task in tasks:

@@ -173,7 +173,7 @@ def evaluate(
     optimiser: OptimiserConfig | None = None,
     expert: float | None = None,
     dataset: Any = None,
-    budget: str = "cpu",
+    budget: str = "auto",
     skip_unfit: bool = False,
     goal_model: Any = None,
     checkpoint: Any = None,

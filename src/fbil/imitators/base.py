@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Protocol, runtime_checkable
 
@@ -18,7 +18,7 @@ import numpy as np
 
 from fbil.errors import FbilError
 from fbil.imitation.demos import Demos
-from fbil.imitators.budgets import parse_budget, split_settings
+from fbil.imitators.budgets import AUTO, parse_budget, resolve_auto, split_settings
 
 # fb-il: through a pre-trained FB model, in seconds; offline-il: trained from scratch on
 # the demos (and the unsupervised dataset); bfm: through another behaviour foundation model.
@@ -50,7 +50,8 @@ class FitContext:
 
     model: Any = None
     dataset: Any = None
-    budget: str = "cpu"  # a named budget, NAME@SCALE, then ,PATH=VALUE (fbil.imitators.budgets)
+    # `auto`, a named budget or NAME@SCALE, then ,PATH=VALUE (fbil.imitators.budgets)
+    budget: str = AUTO
     seed: int = 0
     threads: int = 1
     optimiser: Any = None  # fb-il: the z optimiser (None: its default)
@@ -86,8 +87,18 @@ class Imitator:
     def __post_init__(self) -> None:
         assert self.family in FAMILIES, self.family
 
+    def resolved(self, context: FitContext, domain: str | None = None) -> FitContext:
+        """`context` with an `auto` budget replaced by the one measured for this method on
+        `domain` (default: the dataset's; `fbil.imitators.budgets.resolve_auto`)."""
+        if not self.budgets:
+            return context
+        domain = domain or getattr(context.dataset, "domain", None)
+        spec = resolve_auto(context.budget, self.name, domain)
+        return context if spec == context.budget else replace(context, budget=spec)
+
     def require(self, context: FitContext) -> None:
         """One-line errors for inputs this imitator needs and `context` lacks."""
+        context = self.resolved(context)
         if self.needs_dataset and context.dataset is None:
             raise FbilError(
                 f"{self.name} trains on the unsupervised dataset: pass --data DIR "
@@ -109,6 +120,7 @@ class Imitator:
 
     def check(self, demos: Demos, context: FitContext) -> None:
         """One-line errors for what this imitator cannot work with."""
+        context = self.resolved(context, demos.metadata.get("domain"))
         if self.needs_actions and not demos.has_actions:
             raise FbilError(
                 f"{self.name} needs expert actions, and these demonstrations have none; "
@@ -122,6 +134,7 @@ class Imitator:
 
     def fit(self, demos: Demos, context: FitContext) -> Fitted:
         """Check, then fit and time: the seconds are the time to policy."""
+        context = self.resolved(context, demos.metadata.get("domain"))
         self.check(demos, context)
         started = time.perf_counter()
         if context.checkpoint is not None:

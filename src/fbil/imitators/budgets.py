@@ -1,6 +1,11 @@
 """Named training budgets, their scaled forms and single-setting changes, parsed here and
 nowhere else.
 
+`auto` (the default) stands for the budget measured for the method on the domain, where
+the domain lists one (its `baseline_budgets` hook: walker's TD3-based baselines at
+`cpu@5`), else `cpu`; it is resolved before anything trains, and results lines record
+the resolved spec.
+
 A budget spec is a name (`cpu`, `smoke`), optionally with a scale, `NAME@SCALE` (`cpu@0.25`,
 `cpu@2`), then optionally changed settings, `,PATH=VALUE` each (`cpu,dual.divergence=kl`,
 `cpu@0.5,td3.tau=0.01`; what `--set PATH=VALUE` of `fbil imitate/evaluate/benchmark`
@@ -27,6 +32,8 @@ from typing import Any, TypeVar
 from fbil.config import override
 from fbil.errors import FbilError
 
+AUTO = "auto"  # the budget measured for the method on the domain, else DEFAULT
+DEFAULT = "cpu"
 SEPARATOR = "@"
 SETTING = ","  # before each changed setting, PATH=VALUE
 STEP_FIELD = "steps"  # the name of a gradient-step count in a budget's configuration
@@ -61,6 +68,22 @@ def with_settings(spec: str, items: Sequence[str] | None) -> str:
     out = SETTING.join([spec, *(items or [])])
     split_settings(out)  # each item well-formed
     return out
+
+
+def resolve_auto(spec: str, method: str, domain: str | None) -> str:
+    """An `auto` spec -> the budget measured for `method` on `domain` (the domain's
+    `baseline_budgets` hook), else `cpu`, with the spec's changed settings appended after
+    the measured ones: 'auto,td3.tau=0.01' for td3il on walker -> 'cpu@5,td3.tau=0.01'.
+    Any other spec is returned as it is."""
+    base, settings = split_settings(spec)
+    if base != AUTO:
+        return spec
+    measured = DEFAULT
+    if domain is not None:
+        from fbil.envs import get_domain
+
+        measured = get_domain(domain).hooks.baseline_budgets.get(method, DEFAULT)
+    return with_settings(measured, [f"{path}={value}" for path, value in settings])
 
 
 def scaled_spec(spec: str, scale: float) -> str:
