@@ -24,6 +24,7 @@ import torch
 
 from fbil.baselines.common import TrainedPolicy, Transitions, demo_transitions, trained_imitator
 from fbil.baselines.sac import SAC, SACConfig, Update, train_sac
+from fbil.errors import FbilError
 from fbil.imitation.demos import Demos
 from fbil.imitators.base import FitContext
 from fbil.imitators.budgets import Budgets
@@ -34,6 +35,13 @@ class IQLearnConfig:
     sac: SACConfig = field(default_factory=lambda: SACConfig(temperature=0.01))
     chi2: float = 0.5  # c of the chi^2 term 1/(4c) E[r^2]
     expert_ratio: float = 0.5
+
+    def __post_init__(self) -> None:
+        if self.sac.clamp_values:
+            raise FbilError(
+                "sac.clamp_values bounds a critic by its rewards' range, and IQ-Learn learns "
+                "without a reward: drop the setting"
+            )
 
 
 BUDGETS = Budgets(
