@@ -515,8 +515,8 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
     for m, r in out["results"].items():
         _note_divergence(m, r.fit)
     for m in methods:  # the methods that train: their budget and its whole configuration
-        if get_imitator(m).budgets:
-            imitator = get_imitator(m)
+        imitator = get_imitator(m)
+        if imitator.budgets:
             methods[m].update(imitator.settings(imitator.resolved(context, out["domain"])))
     methods.update({m: {"skipped": why} for m, why in out["skipped"].items()})
     keys = ("expert_return", "task", "k", "episodes")
