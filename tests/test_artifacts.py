@@ -78,17 +78,18 @@ def test_committed_artifacts_match_their_manifests(folder: str) -> None:
     assert body["sha256"] and body["command"].startswith(COMMAND_PREFIXES)
 
 
-def test_the_committed_walker_model_is_what_the_cpu_preset_trains() -> None:
-    """`fbil pretrain walker --preset cpu` must reproduce the committed model's settings
+@pytest.mark.parametrize("domain", ["walker", "cheetah"])
+def test_a_committed_locomotion_model_is_what_the_cpu_preset_trains(domain: str) -> None:
+    """`fbil pretrain DOMAIN --preset cpu` must reproduce the committed model's settings
     (its manifest says so): every model and training setting but the snapshot interval."""
     import dataclasses
 
     from fbil.config import config_from_dict
     from fbil.fb.config import FBModelConfig, FBTrainConfig, preset
 
-    folder = ARTIFACTS / "models" / "walker"
+    folder = ARTIFACTS / "models" / domain
     saved = json.loads((folder / "config.json").read_text())
-    model_cfg, train_cfg = preset("walker", "cpu")
+    model_cfg, train_cfg = preset(domain, "cpu")
     assert config_from_dict(FBModelConfig, saved["model"]) == model_cfg
     trained = config_from_dict(FBTrainConfig, saved["train_config"])
     assert dataclasses.replace(trained, snapshot_every=0) == train_cfg
