@@ -604,10 +604,10 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     from fbil.evaluation.demo import demo_tasks, run_demo
 
     started = time.perf_counter()
-    for task in demo_tasks(args.tasks):
-        out = run_demo(task, args.methods, args.episodes, args.out)
+    for task in demo_tasks(args.tasks, domain=args.domain):
+        out = run_demo(task, args.methods, args.episodes, args.out, domain=args.domain)
         print(
-            f"fbil demo: imitating one expert demonstration of point_mass_maze/{out['task']} "
+            f"fbil demo: imitating one expert demonstration of {args.domain}/{out['task']} "
             f"with the committed cpu FB model ({out['episodes']} evaluation episodes per "
             "method)"
         )
@@ -966,14 +966,20 @@ def _add_benchmark(sub: Any) -> None:
 
 
 def _add_demo(sub: Any) -> None:
-    from fbil.evaluation.demo import DEFAULT_OUT, DEFAULT_TASK
+    from fbil.evaluation.demo import DEFAULT_DOMAIN, DEFAULT_OUT
 
-    about = "imitate a maze demo with every method (shipped model)"
+    about = "imitate a committed demo with every FB-IL method (shipped model)"
     p = _command(sub, "demo", _cmd_demo, about, with_json=False, threads=True, outputs=_OUT_FOLDER)
     p.add_argument(
+        "--domain",
+        default=DEFAULT_DOMAIN,
+        help="a domain with a shipped model and demos (artifacts/models/DOMAIN)",
+    )
+    p.add_argument(
         "--tasks",
-        default=DEFAULT_TASK,
-        help="maze task(s) whose committed demo to imitate: a task, a comma list or all",
+        default=None,
+        help="task(s) whose committed demo to imitate: a task, a comma list or all "
+        "(default: loop on the maze, walk on a locomotion domain)",
     )
     p.add_argument("--methods", default="all", help="all, a method or a comma list")
     p.add_argument("--episodes", type=int, default=10, help="evaluation episodes per method")

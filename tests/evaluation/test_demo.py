@@ -1,4 +1,4 @@
-"""`fbil demo` end to end on the committed maze model and demonstrations."""
+"""`fbil demo` end to end on the committed models and demonstrations (maze, cheetah)."""
 
 import os
 import shutil
@@ -30,6 +30,29 @@ def test_demo_imitates_and_draws_on_the_committed_artifacts(tmp_path: Path) -> N
         row = next(line for line in lines if line.startswith(method))
         assert row.rstrip().endswith("%")
     assert (tmp_path / "demo_loop.png").stat().st_size > 5000
+
+
+def test_demo_on_a_locomotion_domain_draws_frames_of_its_default_task(tmp_path: Path) -> None:
+    res = run(
+        "--domain", "cheetah", "--episodes", "1", "--methods", "goalfb", "--out", str(tmp_path)
+    )
+    assert res.returncode == 0, res.stderr
+    assert "cheetah/walk" in res.stdout  # the domain's demo task (its hooks' demo_task)
+    row = next(line for line in res.stdout.splitlines() if line.startswith("goalfb"))
+    assert row.rstrip().endswith("%")
+    assert (tmp_path / "demo_walk.png").stat().st_size > 20000  # rows of rendered frames
+
+
+def test_a_domain_without_shipped_artifacts_names_those_that_have_them(tmp_path: Path) -> None:
+    root = tmp_path / "artifacts"
+    for part in ("models/point_mass_maze", "demos/point_mass_maze"):
+        shutil.copytree(ARTIFACTS / part, root / part)
+    out = tmp_path / "figures"
+    res = run("--domain", "walker", "--out", str(out), env={"FBIL_ARTIFACTS": str(root)})
+    lines = res.stderr.strip().splitlines()
+    assert res.returncode == 2 and len(lines) == 1, res.stderr
+    assert "no committed demos for walker" in lines[0] and "--domain point_mass_maze" in lines[0]
+    assert not out.exists()
 
 
 def test_a_corrupted_artifact_is_named_with_its_fix(tmp_path: Path) -> None:

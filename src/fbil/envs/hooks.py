@@ -125,3 +125,5 @@ class DomainHooks:
     oversampling: Oversampling | None = None
     pictures: Pictures | None = None
     baseline_budgets: Mapping[str, str] = field(default_factory=dict)
+    # the task `fbil demo` imitates when none is named (None: its first committed demo)
+    demo_task: str | None = None

@@ -111,10 +111,12 @@ class Locomotion:
     physics_from_observation: Callable[[np.ndarray], np.ndarray] | None = None
     # method -> its budget spec measured on this domain (`DomainHooks.baseline_budgets`)
     baseline_budgets: Mapping[str, str] = field(default_factory=dict)
+    demo_task: str = "walk"  # `fbil demo --domain D`'s default task (every domain walks)
 
     def hooks(self) -> DomainHooks:
         return DomainHooks(
             baseline_budgets=self.baseline_budgets,
+            demo_task=self.demo_task,
             starts={"shifted": self.shifted_starts},
             coverage=Coverage(self.coverage_summary, self.coverage_text, self.plot_coverage),
             pictures=Pictures(

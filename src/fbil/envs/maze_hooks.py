@@ -234,4 +234,5 @@ HOOKS = DomainHooks(
         imitation=imitation_panels,
         imitation_heading="Demonstration (red) against each method's rollout (green)",
     ),
+    demo_task="loop",  # a path to follow, where the principles visibly differ
 )
