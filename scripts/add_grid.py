@@ -1,12 +1,12 @@
-"""Add one baseline's finished grid (the lines of one or more `fbil benchmark --out` files)
-to a committed results file, after checking that it is one grid: one method, one domain,
-one budget, one data sample (`data_digest`), and every (task, draw) of the domain's tasks
-exactly once, at one training seed. Lines the results file already holds for that method
-are moved to `--replaced-to` (refused without it), so a rerun replaces a grid rather than
-mixing two; with `--add-seed`, only the method's lines of the grid's own seed are, and its
-lines of other seeds stay (they must have the grid's budget and data sample): a grid run
-again with `fbil benchmark --seed`, which `fbil report` averages per draw. Both files are
-written whole or not at all.
+"""Add one baseline's finished grid (the lines of one or more `fbil benchmark --out` files) to
+a committed results file, after checking that it is one grid: one method, one domain, one
+budget, one data sample (`data_digest`, for a method that trains on data), and every (task,
+draw) of the domain's tasks exactly once, at one training seed. Lines the results file
+already holds for that method are moved to `--replaced-to` (refused without it), so a rerun
+replaces a grid rather than mixing two; with `--add-seed`, only the method's lines of the
+grid's own seed are, and its lines of other seeds stay (they must have the grid's budget
+and data sample): a grid run again with `fbil benchmark --seed`, which `fbil report`
+averages per draw. Both files are written whole or not at all.
 
 Usage: python scripts/add_grid.py RESULTS GRID.jsonl [GRID.jsonl ...] [--replaced-to PATH]
        [--draws N] [--add-seed]
@@ -28,6 +28,7 @@ from fbil.checkpoint import atomic_write_text
 from fbil.envs.registry import get_domain
 from fbil.errors import FbilError
 from fbil.evaluation.benchmark import read_results
+from fbil.imitators.registry import get_imitator
 
 
 def read_lines(path: Path) -> list[dict[str, Any]]:
@@ -56,7 +57,9 @@ def check_grid(rows: list[dict[str, Any]], draws: int | None) -> dict[str, Any]:
     one(rows, "k")
     one(rows, "demo_set")
     seed = int(one(rows, "seed") or 0)
-    if digest is None:
+    imitator = get_imitator(str(method))
+    if digest is None and (imitator.needs_dataset or imitator.needs_goal_model):
+        # a method that trains on no dataset (bc: the demos alone) records none
         raise FbilError("the grid's lines record no data_digest: rerun them with this fbil")
     n_draws = draws if draws is not None else 1 + max(int(r["draw"]) for r in rows)
     tasks = list(get_domain(domain).tasks)

@@ -81,6 +81,13 @@ def test_anything_but_one_complete_grid_is_refused(
     assert results.read_text() == before
 
 
+def test_a_method_that_trains_on_no_data_needs_no_data_digest(tmp_path: Path) -> None:
+    results = _write(tmp_path / "baselines.jsonl", [])
+    grid = _write(tmp_path / "g.jsonl", _grid("bc", digest=None))
+    assert "score 50.0 %" in add_grid.add_grid(results, [grid], None)
+    assert len(results.read_text().splitlines()) == 2 * len(TASKS)
+
+
 def test_old_lines_of_the_method_need_a_place_to_go(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
