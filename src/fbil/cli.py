@@ -612,7 +612,8 @@ def _cmd_demo(args: argparse.Namespace) -> int:
             "method)"
         )
         _print_scores(out)
-        print(f"figure: {out['picture']}")
+        if out["picture"] is not None:  # a domain whose rollouts keep nothing to draw
+            print(f"figure: {out['picture']}")
     print(f"total: {time.perf_counter() - started:.1f} s")
     return 0
 
