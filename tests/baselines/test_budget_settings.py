@@ -212,3 +212,18 @@ def test_benchmark_jobs_hold_the_resolved_budget(tmp_path: Path) -> None:
         data=tmp_path, budget="auto",
     )  # fmt: skip
     assert {j.method: j.budget for j in jobs} == {"td3il": "cpu@5", "bc": "cpu", "erfb": None}
+
+
+@pytest.mark.parametrize("domain", ["point_mass_maze", "walker", "cheetah", "quadruped"])
+def test_every_measured_budget_of_a_domain_builds_its_methods_config(domain: str) -> None:
+    """A domain's `baseline_budgets` are read only when a user runs that baseline there:
+    each must name a baseline that trains and build its config (a misspelt setting or an
+    unknown budget would otherwise fail minutes into a benchmark)."""
+    from fbil.envs import get_domain
+
+    for method, spec in get_domain(domain).hooks.baseline_budgets.items():
+        imitator = get_imitator(method)
+        assert imitator.budgets, method
+        context = imitator.resolved(FitContext(), domain)
+        assert context.budget == spec
+        assert imitator.settings(context)["config"], (method, spec)
