@@ -173,7 +173,9 @@ def test_one_spelling_per_option_and_every_default_in_help() -> None:
         text = " ".join(parser.format_help().split())
         for a in actions:
             if a.default is not None and a.default is not False and a.default != argparse.SUPPRESS:
-                assert f"(default: {a.default})" in text, f"{name} {a.option_strings}"
+                shown = f"(default: {a.default})"
+                assert text.count(f"{shown} {shown}") == 0, f"{name} {a.option_strings} twice"
+                assert shown in text, f"{name} {a.option_strings}"
         if "--threads" in options:  # several fbil processes must not fight over the cores
             assert parser.get_default("threads") == 1
 

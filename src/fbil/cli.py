@@ -831,7 +831,7 @@ def _add_training_inputs(p: argparse.ArgumentParser) -> None:
         default="auto",
         help="training budget of methods that train: auto (the one measured for the method "
         "on the domain, else cpu), cpu, or smoke (seconds, for tests); NAME@SCALE multiplies "
-        "its gradient steps (cpu@0.5, cpu@2) (default: auto)",
+        "its gradient steps (cpu@0.5, cpu@2)",
     )
     p.add_argument(
         "--set",
