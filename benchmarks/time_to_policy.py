@@ -38,7 +38,7 @@ from fbil.evaluation.paper import PAPER_TIMES
 from fbil.fb.model import FBModel
 from fbil.imitation import MAIN_METHODS, METHODS, Demos, OptimiserConfig, imitate
 from fbil.imitators import FitContext, get_imitator, resolve
-from fbil.imitators.budgets import scaled_spec
+from fbil.imitators.budgets import resolve_auto, scaled_spec
 
 ROOT = Path(__file__).resolve().parents[1]
 CURVE_STEPS = (0, 10, 25, 50, 100, 200, 400)
@@ -78,16 +78,17 @@ def baseline_timings(
         imitator = get_imitator(name)
         if not imitator.budgets:
             continue  # nothing to train (goal_td3 uses a pre-trained model)
+        spec = resolve_auto(budget, name, demos.metadata.get("domain"))
         medians = []
         for scale in scales:
             context = FitContext(
-                dataset=dataset, budget=scaled_spec(budget, scale), threads=torch.get_num_threads()
+                dataset=dataset, budget=scaled_spec(spec, scale), threads=torch.get_num_threads()
             )
             times = [imitator.fit(demos, context).seconds for _ in range(repeats)]
             medians.append(statistics.median(times))
         fixed, per_scale = line_through(scales, medians)
         result[name] = {
-            "budget": budget,
+            "budget": spec,
             "median_seconds": dict(zip(map(str, scales), medians, strict=True)),
             "fixed_seconds": fixed,
             "projected_seconds": fixed + per_scale,
@@ -151,7 +152,11 @@ def main() -> None:
     parser.add_argument("--json", action="store_true")
     parser.add_argument("--baselines", default="", help="offline-IL methods to time too")
     parser.add_argument("--data", default=None, help="--baselines: the unsupervised dataset")
-    parser.add_argument("--budget", default="cpu", help="--baselines: the budget projected")
+    parser.add_argument(
+        "--budget",
+        default="auto",
+        help="--baselines: the budget projected (auto: each method's measured one on the domain)",
+    )
     parser.add_argument("--scales", default="0.01,0.02", help="--baselines: scales fitted")
     parser.add_argument("--baseline-repeats", type=int, default=3)
     args = parser.parse_args()

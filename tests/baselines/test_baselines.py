@@ -423,3 +423,8 @@ def test_time_to_policy_projects_each_baseline_from_small_scales(
     slope = row["median_seconds"]["2.0"] - row["median_seconds"]["1.0"]
     assert row["projected_seconds"] == pytest.approx(row["median_seconds"]["1.0"])
     assert row["fixed_seconds"] == pytest.approx(row["median_seconds"]["1.0"] - slope)
+    # `auto` resolves to the method's measured budget on the demo's domain (the maze: cpu)
+    auto = bench.baseline_timings(
+        ["bc"], demos, load_dataset(fixture_data), "auto", [1e-4, 2e-4], 1
+    )
+    assert auto["bc"]["budget"] == "cpu"

@@ -88,11 +88,20 @@ def resolve_auto(spec: str, method: str, domain: str | None) -> str:
 
 def scaled_spec(spec: str, scale: float) -> str:
     """`spec` with its gradient steps scaled by `scale`: 'cpu,x=1' at 0.5 -> 'cpu@0.5,x=1'
-    (the bare spec at scale 1; the scale goes on the name, before any changed setting)."""
+    (the bare spec at scale 1; the scale goes on the name, before any changed setting); a
+    spec already scaled multiplies: 'cpu@6' at 0.01 -> 'cpu@0.06'."""
     if scale == 1:
         return spec
     base, settings = split_settings(spec)
-    return SETTING.join([f"{base}{SEPARATOR}{scale:g}", *(f"{p}={v}" for p, v in settings)])
+    name, sep, old = base.partition(SEPARATOR)
+    if sep:
+        try:
+            scale *= float(old)
+        except ValueError:
+            raise FbilError(
+                f"bad budget {spec!r}: the scale after {SEPARATOR!r} is a number"
+            ) from None
+    return SETTING.join([f"{name}{SEPARATOR}{scale:g}", *(f"{p}={v}" for p, v in settings)])
 
 
 def parse_budget(spec: str, names: Sequence[str], owner: str = "") -> tuple[str, float]:
