@@ -66,14 +66,15 @@ def track(
     steps = len(trajs[0]) - t0
     if steps < 1:
         raise FbilError(f"--starts: {t0} is past the demos' {len(trajs[0])} steps")
-    policies = [GoalTrackingPolicy(goal, t.observation) for t in trajs]
+    policies: list[Any] = [GoalTrackingPolicy(goal, t.observation) for t in trajs]
     policies += [imitate(fb, Demos([t], dict(demos.metadata)), "goalfb") for t in trajs]
-    starts = np.stack([t.physics[t0] for t in trajs] * len(METHODS))
+    physics = [np.asarray(t.physics) for t in trajs]
+    starts = np.stack([ph[t0] for ph in physics] * len(METHODS))
     env = BatchedEnv(goal.domain, task, len(starts))
     eps = env.rollout(Blocks(policies, t0), [0] * len(starts), steps, start_states=starts)
     scale = goal.agent.obs_stats[1, : goal.config.obs_dim].numpy()
     demo_obs = np.stack([t.observation[t0:] for t in trajs])
-    demo_return = np.array([t.reward[t0:].sum() for t in trajs])
+    demo_return = np.array([np.asarray(t.reward)[t0:].sum() for t in trajs])
     out = {}
     for i, method in enumerate(METHODS):
         block = slice(i * len(trajs), (i + 1) * len(trajs))
