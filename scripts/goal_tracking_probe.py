@@ -15,8 +15,14 @@ units; `within` is the share of steps inside it).
   from 0, it fails on the way there (getting up, speeding up); if it fails from 500 too,
   it cannot follow the expert's behaviour at all with this model.
 
+With --data, also the same question where HER trained the goal policy (`reach`): from
+dataset states toward dataset states LOOKAHEAD steps later. A goal policy that fails there
+did not learn goal reaching; one that succeeds there but not on the demo fails to carry it
+to the expert's states.
+
 Usage: python scripts/goal_tracking_probe.py --model FB_DIR --goal-model GOAL_DIR
-           --demos DIR [--tasks all] [--demos-used 5] [--starts 0,100,500] [--json FILE]
+           --demos DIR [--tasks all] [--demos-used 5] [--starts 0,100,500]
+           [--data DIR --pairs 300] [--json FILE]
 """
 
 from __future__ import annotations
@@ -31,8 +37,9 @@ import numpy as np
 import torch
 
 from fbil.baselines.goal_model import GoalModel
-from fbil.baselines.goal_td3 import GoalTrackingPolicy
+from fbil.baselines.goal_td3 import LOOKAHEAD, GoalTrackingPolicy
 from fbil.checkpoint import atomic_write_text
+from fbil.data import load_dataset
 from fbil.envs import get_domain
 from fbil.envs.rollout import BatchedEnv
 from fbil.errors import FbilError
@@ -87,6 +94,45 @@ def track(
     return out
 
 
+def reach(
+    fb: FBModel, goal: GoalModel, data: Any, task: str, n: int, horizon: int
+) -> dict[str, dict[str, float]]:
+    """In the data, where HER trained the goal policy: from n dataset states, each method
+    (and zero actions, the floor) heads for the state `horizon` steps later in the same
+    episode, for 2 x horizon steps; the share that comes within epsilon of it, and the
+    mean of the closest distance reached (standardised)."""
+    rng = np.random.default_rng(0)
+    rows = data.next_index[data.next_index + horizon <= data.state_episode_end[data.next_index]]
+    rows = np.sort(rng.choice(rows, n, replace=False))
+    goals = np.asarray(data.observation[rows + horizon], np.float32)
+    physics = data.physics()[rows]
+    z = fb.goal_inference(goals)
+    acts = {
+        "goal_td3": lambda o: goal.act(o, goals),
+        "goalfb": lambda o: fb.act(o, z).numpy(),
+        "zero_action": lambda o: np.zeros((len(o), goal.config.act_dim), np.float32),
+    }
+    names = list(acts)
+
+    def policy(obs: np.ndarray, step: int) -> np.ndarray:
+        return np.concatenate(
+            [acts[m](o) for m, o in zip(names, np.split(obs, len(names)), strict=True)]
+        )
+
+    env = BatchedEnv(goal.domain, task, n * len(names))
+    eps = env.rollout(policy, [0] * n * len(names), 2 * horizon, np.tile(physics, (len(names), 1)))
+    scale = goal.agent.obs_stats[1, : goal.config.obs_dim].numpy()
+    out = {}
+    for i, m in enumerate(names):
+        traj = eps.observation[i * n : (i + 1) * n]
+        closest = np.linalg.norm((traj - goals[:, None]) / scale, axis=-1)[:, 1:].min(1)
+        out[m] = {
+            "reached": float((closest <= goal.config.epsilon).mean()),
+            "closest": float(closest.mean()),
+        }
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--model", required=True, help="FB model folder (GOALFB)")
@@ -95,6 +141,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--tasks", default="all")
     p.add_argument("--demos-used", type=int, default=5, help="the first N of each task")
     p.add_argument("--starts", default="0,100,500", help="t0 values, demo steps")
+    p.add_argument("--data", default=None, help="also the in-data check (see `reach`)")
+    p.add_argument("--pairs", type=int, default=300, help="--data: start-goal pairs")
     p.add_argument("--json", default=None)
     args = p.parse_args(argv)
     torch.set_num_threads(1)
@@ -117,6 +165,15 @@ def main(argv: list[str] | None = None) -> int:
                         f"{task:14} {m:9} {t0:4}: {r['return_share']:6.1%} "
                         f"{r['distance']:6.2f} {r['within']:6.1%}"
                     )
+        if args.data:
+            data = load_dataset(args.data, domain=goal.domain)
+            res = reach(fb, goal, data, names[0], args.pairs, LOOKAHEAD)
+            table["in_data"] = {"pairs": args.pairs, "horizon": LOOKAHEAD, **res}
+            for m, r in res.items():
+                print(
+                    f"in the data, goal {LOOKAHEAD} steps ahead, {m:11}: reached "
+                    f"{r['reached']:6.1%}, closest {r['closest']:5.2f}"
+                )
         if args.json:
             atomic_write_text(args.json, json.dumps(table, indent=1) + "\n")
     except (FbilError, ValueError) as error:

@@ -39,3 +39,20 @@ def test_a_start_past_the_demo_is_one_line_and_exit_2(capsys: pytest.CaptureFixt
     assert probe.main(args) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "past the demos'" in err[0]
+
+
+def test_in_the_data_the_maze_goal_policies_get_closer_than_zero_actions(
+    fixture_data: Path,
+) -> None:
+    from fbil.baselines.goal_model import GoalModel
+    from fbil.data import load_dataset
+    from fbil.fb.model import FBModel
+
+    fb = FBModel.load(ARTIFACTS / "models" / "point_mass_maze")
+    goal = GoalModel.load(ARTIFACTS / "goal_models" / "point_mass_maze")
+    out = probe.reach(fb, goal, load_dataset(fixture_data), "loop", 40, 10)
+    assert set(out) == {"goal_td3", "goalfb", "zero_action"}
+    assert all(0.0 <= r["reached"] <= 1.0 for r in out.values())
+    # Both trained goal reachers end nearer their goals than a point mass left to drift.
+    assert out["goal_td3"]["closest"] < out["zero_action"]["closest"]
+    assert out["goalfb"]["closest"] < out["zero_action"]["closest"]
