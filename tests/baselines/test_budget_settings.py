@@ -87,7 +87,11 @@ def test_specs_carry_a_scale_and_settings() -> None:
     assert scaled_spec("cpu,dual.divergence=kl", 1) == "cpu,dual.divergence=kl"
     # an already scaled budget (a domain's `auto`, e.g. cpu@6) scales again by the product
     assert scaled_spec("cpu@6,td3.clamp_values=true", 0.01) == "cpu@0.06,td3.clamp_values=true"
-    with pytest.raises(FbilError, match="is a number"):
+    # a step count set by a changed setting scales with the rest (sqil's cheetah `auto`)
+    assert scaled_spec("cpu,sac.clamp_values=true,sac.steps=200000", 0.005) == (
+        "cpu@0.005,sac.clamp_values=true,sac.steps=1000"
+    )
+    with pytest.raises(FbilError, match="not a number"):
         scaled_spec("cpu@x", 0.5)
     assert parse_budget("cpu@0.5,dual.lr=1", ("cpu",)) == ("cpu", 0.5)
     for bad in ("cpu,x", "cpu,=1", "cpu,x=", "cpu,"):

@@ -87,21 +87,24 @@ def resolve_auto(spec: str, method: str, domain: str | None) -> str:
 
 
 def scaled_spec(spec: str, scale: float) -> str:
-    """`spec` with its gradient steps scaled by `scale`: 'cpu,x=1' at 0.5 -> 'cpu@0.5,x=1'
-    (the bare spec at scale 1; the scale goes on the name, before any changed setting); a
-    spec already scaled multiplies: 'cpu@6' at 0.01 -> 'cpu@0.06'."""
+    """`spec` with all its gradient steps scaled by `scale`: 'cpu,x=1' at 0.5 ->
+    'cpu@0.5,x=1' (the bare spec at scale 1; the scale goes on the name, before any changed
+    setting). A spec already scaled multiplies, 'cpu@6' at 0.01 -> 'cpu@0.06', and a step
+    count set by a changed setting is scaled too, since it would otherwise replace the
+    scaled one: 'cpu,sac.steps=200000' at 0.01 -> 'cpu@0.01,sac.steps=2000'."""
     if scale == 1:
         return spec
     base, settings = split_settings(spec)
     name, sep, old = base.partition(SEPARATOR)
-    if sep:
-        try:
-            scale *= float(old)
-        except ValueError:
-            raise FbilError(
-                f"bad budget {spec!r}: the scale after {SEPARATOR!r} is a number"
-            ) from None
-    return SETTING.join([f"{name}{SEPARATOR}{scale:g}", *(f"{p}={v}" for p, v in settings)])
+    try:
+        total = scale * (float(old) if sep else 1.0)
+        changed = [
+            (p, str(max(1, round(int(v) * scale))) if p.split(".")[-1] == STEP_FIELD else v)
+            for p, v in settings
+        ]
+    except ValueError:
+        raise FbilError(f"bad budget {spec!r}: a scale or a step count is not a number") from None
+    return SETTING.join([f"{name}{SEPARATOR}{total:g}", *(f"{p}={v}" for p, v in changed)])
 
 
 def parse_budget(spec: str, names: Sequence[str], owner: str = "") -> tuple[str, float]:
