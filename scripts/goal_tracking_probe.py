@@ -43,24 +43,12 @@ from fbil.data import load_dataset
 from fbil.envs import get_domain
 from fbil.envs.rollout import BatchedEnv
 from fbil.errors import FbilError
+from fbil.evaluation.evaluate import MultiPolicy
 from fbil.fb.model import FBModel
 from fbil.imitation.api import imitate
 from fbil.imitation.demos import Demos
 
 METHODS = ("goal_td3", "goalfb")
-
-
-class Blocks:
-    """Row block i of the batch plays policy i at step t0 + t (the demo's own clock)."""
-
-    def __init__(self, policies: list[Any], t0: int) -> None:
-        self.policies, self.t0 = policies, t0
-
-    def __call__(self, obs: np.ndarray, step: int) -> np.ndarray:
-        rows = np.array_split(obs, len(self.policies))
-        return np.concatenate(
-            [p.act(r, step=self.t0 + step) for p, r in zip(self.policies, rows, strict=True)]
-        )
 
 
 def track(
@@ -78,7 +66,10 @@ def track(
     physics = [np.asarray(t.physics) for t in trajs]
     starts = np.stack([ph[t0] for ph in physics] * len(METHODS))
     env = BatchedEnv(goal.domain, task, len(starts))
-    eps = env.rollout(Blocks(policies, t0), [0] * len(starts), steps, start_states=starts)
+    multi = MultiPolicy(policies, 1)  # row i plays policy i, on the demo's own clock
+    eps = env.rollout(
+        lambda obs, step: multi(obs, t0 + step), [0] * len(starts), steps, start_states=starts
+    )
     scale = goal.agent.obs_stats[1, : goal.config.obs_dim].numpy()
     demo_obs = np.stack([t.observation[t0:] for t in trajs])
     demo_return = np.array([np.asarray(t.reward)[t0:].sum() for t in trajs])
