@@ -86,3 +86,49 @@ def test_the_td_target_is_clamped_to_the_set_range() -> None:
     assert losses["free"] > 10 * losses["clamped"]  # rewards up to 10 against a cap of 1
     with pytest.raises(FbilError, match=r"target_min \(1.0\) must be below target_max"):
         TD3Config(target_min=1.0, target_max=1.0)
+
+
+def _two_stream(precision: str = "fp32") -> TD3:
+    # Inputs [s (3), c (2)]: the critic's flat input is [s, c, a].
+    cfg = TD3Config(hidden=64, arch="two_stream", cond_dim=2, precision=precision)  # type: ignore[arg-type]
+    return TD3(5, 2, cfg, seed=0)
+
+
+def test_two_stream_critics_see_the_action_only_through_s_a_and_the_goal_through_s_c() -> None:
+    """The paper's critic encodes (s, a) and (s, c) apart: with the (s, c) encoder's
+    weights on c zeroed, Q no longer depends on c, and with the (s, a) encoder's weights on
+    a zeroed, no longer on a (a wrong split of the flat input fails one of them)."""
+    agent = _two_stream()
+    critic = agent.critics[0]
+    g = torch.Generator().manual_seed(0)
+    s, c, a = torch.randn(8, 3, generator=g), torch.randn(8, 2, generator=g), torch.rand(8, 2)
+    other_c, other_a = torch.randn(8, 2, generator=g), -a
+
+    def q(c_: torch.Tensor, a_: torch.Tensor) -> torch.Tensor:
+        return critic(torch.cat([s, c_, a_], -1))
+
+    with torch.no_grad():
+        assert not torch.allclose(q(c, a), q(other_c, a))
+        assert not torch.allclose(q(c, a), q(c, other_a))
+        critic.sc[0].weight[:, 3:] = 0  # the (s, c) encoder's weights on c
+        assert torch.allclose(q(c, a), q(other_c, a))
+        critic.sa[0].weight[:, 3:] = 0  # the (s, a) encoder's weights on a
+        assert torch.allclose(q(c, a), q(c, other_a))
+
+
+def test_two_stream_bf16_updates_stay_within_a_percent_of_fp32() -> None:
+    fp32, bf16 = _two_stream(), _two_stream("bf16")
+    for step in range(6):
+        a, b = fp32.update(*_batch(step)), bf16.update(*_batch(step))
+        assert b["critic_loss"] == pytest.approx(a["critic_loss"], rel=0.02)
+    obs = _batch(99)[0]
+    assert abs(fp32.act(obs.numpy()) - bf16.act(obs.numpy())).max() < 0.02
+    q = bf16._q(bf16.critics, torch.full((1, 5), 3.0), torch.zeros(1, 2))
+    assert q.dtype == torch.float32
+
+
+def test_unknown_arch_and_a_two_stream_without_conditioning_are_refused() -> None:
+    with pytest.raises(FbilError, match="valid: mlp, two_stream"):
+        TD3Config(arch="wide")  # type: ignore[arg-type]
+    with pytest.raises(FbilError, match="needs cond_dim >= 1"):
+        TD3Config(arch="two_stream")

@@ -132,17 +132,22 @@ def _q_order(model: GoalModel, dataset: Any) -> float:
     return float((near > other).float().mean())
 
 
+@pytest.mark.parametrize("arch", ["mlp", "two_stream"])
 def test_a_short_pretraining_orders_goal_reaching_values(
-    fixture_data: Path, tmp_path: Path
+    fixture_data: Path, tmp_path: Path, arch: str
 ) -> None:
     dataset = load_dataset(fixture_data)
     cfg = dataclasses.replace(SMALL, steps=300, hidden=64, batch_size=128, actor_lr=1e-3)
-    cfg = dataclasses.replace(cfg, critic_lr=1e-3)
+    cfg = dataclasses.replace(cfg, critic_lr=1e-3, arch=arch)
     trainer = GoalTD3Trainer(cfg, dataset)
     before = _q_order(trainer.model(), dataset)
     model = trainer.fit(tmp_path / "goal", progress=False)
     after = _q_order(model, dataset)
     assert after > 0.9 and after > before + 0.2, (before, after)
+    loaded = GoalModel.load(tmp_path / "goal")  # the folder builds its arch's networks
+    obs, goal = dataset.observation[:7], dataset.observation[100:101]
+    assert loaded.config.arch == arch
+    np.testing.assert_array_equal(loaded.act(obs, goal), model.act(obs, goal))
 
 
 def _weights(model: GoalModel) -> dict[str, torch.Tensor]:

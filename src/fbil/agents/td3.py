@@ -23,6 +23,7 @@ import torch
 from torch import nn
 from torch.nn import functional as F
 
+from fbil.agents.two_stream import TwoStreamActor, TwoStreamCritic
 from fbil.errors import FbilError
 
 
@@ -57,8 +58,17 @@ class TD3Config:
     # buffer (RLPD's symmetric sampling, Ball et al. 2023: prior data shows the learner
     # rewarded states its own exploration may never reach).
     offline_share: float = 0.5
+    # The networks: "mlp", two hidden layers on the flat input; "two_stream", the paper's
+    # conditioned networks (`fbil.agents.two_stream`), for an input [s, c] whose last
+    # `cond_dim` entries condition the policy (GOAL-TD3's goal).
+    arch: Literal["mlp", "two_stream"] = "mlp"
+    cond_dim: int = 0
 
     def __post_init__(self) -> None:
+        if self.arch not in ("mlp", "two_stream"):
+            raise FbilError(f"unknown arch {self.arch!r}; valid: mlp, two_stream")
+        if self.arch == "two_stream" and self.cond_dim < 1:
+            raise FbilError("arch two_stream needs cond_dim >= 1 (the conditioning's size)")
         if self.precision not in ("fp32", "bf16"):
             raise FbilError(f"unknown precision {self.precision!r}; valid: fp32, bf16")
         if self.actor_q not in ("q1", "min_noisy"):
@@ -85,15 +95,32 @@ def _mlp(inp: int, hidden: int, out: int) -> nn.Sequential:
 
 
 def run_mlp(mlp: nn.Module, x: torch.Tensor, precision: str) -> torch.Tensor:
-    """An MLP of `_mlp`; with bf16, its hidden layers under autocast and its last layer
-    in fp32 (Q values near 100 keep their resolution: bf16 has 8 bits of mantissa)."""
+    """An MLP of `_mlp` or a two-stream net; with bf16, its hidden layers under autocast
+    and its last layer in fp32 (Q values near 100 keep their resolution: bf16 has 8 bits
+    of mantissa)."""
     if precision == "fp32":
         return mlp(x)
+    if isinstance(mlp, TwoStreamActor | TwoStreamCritic):
+        with torch.autocast("cpu", torch.bfloat16):
+            features = mlp.features(x)
+        return mlp.out(features.float())
     layers = list(mlp.children())
     with torch.autocast("cpu", torch.bfloat16):
         for layer in layers[:-1]:
             x = layer(x)
     return layers[-1](x.float())
+
+
+def _actor_net(obs_dim: int, act_dim: int, cfg: TD3Config) -> nn.Module:
+    if cfg.arch == "two_stream":
+        return TwoStreamActor(obs_dim - cfg.cond_dim, cfg.cond_dim, act_dim, cfg.hidden)
+    return _mlp(obs_dim, cfg.hidden, act_dim)
+
+
+def _critic_net(obs_dim: int, act_dim: int, cfg: TD3Config) -> nn.Module:
+    if cfg.arch == "two_stream":
+        return TwoStreamCritic(obs_dim - cfg.cond_dim, cfg.cond_dim, act_dim, cfg.hidden)
+    return _mlp(obs_dim + act_dim, cfg.hidden, 1)
 
 
 class TD3:
@@ -106,9 +133,8 @@ class TD3:
     ) -> None:
         torch.manual_seed(seed)
         self.cfg, self.obs_dim, self.act_dim = config, obs_dim, act_dim
-        h = config.hidden
-        self.actor = nn.Sequential(_mlp(obs_dim, h, act_dim), nn.Tanh())
-        self.critics = nn.ModuleList([_mlp(obs_dim + act_dim, h, 1) for _ in range(2)])
+        self.actor = nn.Sequential(_actor_net(obs_dim, act_dim, config), nn.Tanh())
+        self.critics = nn.ModuleList([_critic_net(obs_dim, act_dim, config) for _ in range(2)])
         self.actor_target = copy.deepcopy(self.actor).requires_grad_(False)
         self.critic_targets = copy.deepcopy(self.critics).requires_grad_(False)
         # fused: one kernel per step for all parameters instead of a loop over them.

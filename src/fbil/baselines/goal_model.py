@@ -11,7 +11,7 @@ import dataclasses
 import json
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal, cast
 
 import numpy as np
 import torch
@@ -36,11 +36,14 @@ class GoalModelConfig:
     epsilon: float  # the goal radius it was trained for: r = 1{|s' - g| <= epsilon}
     gamma: float
     distance: str = "raw"  # the metric of |s' - g|: "standardized" or "raw" (older models)
+    arch: str = "mlp"  # TD3Config's: "mlp" or "two_stream" (the paper's; older models: mlp)
 
 
 def goal_agent(cfg: GoalModelConfig, td3: TD3Config | None = None, seed: int = 0) -> TD3:
-    """TD3 networks on (state, goal) inputs."""
+    """TD3 networks on (state, goal) inputs: the goal is the input's last obs_dim entries."""
     td3 = td3 or TD3Config(hidden=cfg.hidden, gamma=cfg.gamma)
+    arch = cast(Literal["mlp", "two_stream"], cfg.arch)  # TD3Config rejects any other
+    td3 = dataclasses.replace(td3, arch=arch, cond_dim=cfg.obs_dim)
     return TD3(2 * cfg.obs_dim, cfg.act_dim, td3, seed)
 
 

@@ -53,6 +53,7 @@ PAPER_GOAL_TD3 = {
 # Settings a resumed run may change; any other difference is refused.
 RESUMABLE = ("steps", "checkpoint_seconds", "log_every")
 DISTANCES = ("standardized", "raw")
+ARCHS = ("mlp", "two_stream")
 
 
 @dataclass(frozen=True)
@@ -88,6 +89,11 @@ class GoalTD3Config:
     # both states rest at the same place, and imitation scored -1.6 % (docs/baselines.md).
     epsilon_horizon: int = LOOKAHEAD
     distance: str = "standardized"  # |s' - g| between standardised states, or "raw"
+    # The networks (TD3Config's): "mlp", 2 layers on [s, g]; "two_stream", the paper's
+    # (App. D.3: s and (s, g), or (s, a) and (s, g), encoded apart, then a 2-layer head).
+    arch: str = "mlp"
+    # "bf16": hidden layers under bf16 autocast (TD3Config's), "fp32": plain.
+    precision: str = "fp32"
     seed: int = 0
     checkpoint_seconds: float = 180.0
     log_every: int = 1000
@@ -101,6 +107,10 @@ class GoalTD3Config:
             raise FbilError("the goal radius (epsilon, epsilon_steps) must be > 0")
         if self.epsilon_horizon < 1:
             raise FbilError(f"epsilon_horizon must be >= 1 step, got {self.epsilon_horizon}")
+        if self.arch not in ARCHS:
+            raise FbilError(f"unknown arch {self.arch!r}; valid: {', '.join(ARCHS)}")
+        if self.precision not in ("fp32", "bf16"):
+            raise FbilError(f"unknown precision {self.precision!r}; valid: fp32, bf16")
         if self.distance not in DISTANCES:
             raise FbilError(f"unknown distance {self.distance!r}; valid: {', '.join(DISTANCES)}")
         if self.clamp_values and (self.target_min is not None or self.target_max is not None):
@@ -111,6 +121,7 @@ class GoalTD3Config:
         actor's)."""
         same: tuple[str, ...] = ("hidden", "batch_size", "gamma", "tau", "policy_noise")
         same += ("noise_clip", "policy_delay", "actor_q", "target_min", "target_max", "bc_alpha")
+        same += ("precision",)  # the arch goes with the model's config (`goal_agent`)
         settings = {k: getattr(self, k) for k in same}
         if self.clamp_values:
             lo, hi = value_bounds((0.0, 1.0), self.gamma)  # the reward of `goal_reward`
@@ -219,7 +230,14 @@ class GoalTD3Trainer:
         )
         obs_dim, act_dim = dataset.observation.shape[1], dataset.action.shape[1]
         self.mcfg = GoalModelConfig(
-            dataset.domain, obs_dim, act_dim, cfg.hidden, epsilon, cfg.gamma, cfg.distance
+            dataset.domain,
+            obs_dim,
+            act_dim,
+            cfg.hidden,
+            epsilon,
+            cfg.gamma,
+            cfg.distance,
+            cfg.arch,
         )
         self.agent = goal_agent(self.mcfg, cfg.td3(), cfg.seed)
         for group in self.agent.actor_opt.param_groups:
