@@ -2,7 +2,8 @@
 set -euo pipefail
 # Carry a training run to a later session (a fresh machine keeps only what is committed):
 #   scripts/carry.sh save RUN NAME   copies RUN's checkpoint.safetensors, config.json and
-#                                    train_log.csv to carry/NAME/ (commit that folder);
+#                                    train_log.csv (a GOAL-TD3 run: goal_checkpoint.safetensors
+#                                    and goal_train_log.csv) to carry/NAME/ (commit it);
 #   scripts/carry.sh load NAME RUN   puts them back in RUN, where `--resume` (or the script
 #                                    that started the run) continues exactly.
 # Replay buffers, snapshots and datasets are not carried: datasets are regenerated from
@@ -18,11 +19,16 @@ case "$verb" in
   load) src=$root/${2:?$usage}; dst=${3:?$usage} ;;
   *) echo "error: unknown verb '$verb'; $usage" >&2; exit 2 ;;
 esac
-for f in checkpoint.safetensors config.json train_log.csv; do
+# An FB run (`fbil pretrain`) or a GOAL-TD3 pre-training (`fbil pretrain-goal`, whose
+# config is inside its checkpoint until it ends).
+files="checkpoint.safetensors config.json train_log.csv"
+[ -f "$src/goal_checkpoint.safetensors" ] && files="goal_checkpoint.safetensors goal_train_log.csv"
+for f in $files; do
   [ -f "$src/$f" ] || { echo "error: $src/$f is missing; is $src a training run's folder?" >&2; exit 2; }
 done
 mkdir -p "$dst"
-for f in checkpoint.safetensors config.json train_log.csv; do
+for f in $files; do
   cp "$src/$f" "$dst/$f.part" && mv "$dst/$f.part" "$dst/$f"
 done
-echo "$verb: $src -> $dst ($(tail -n 1 "$dst/train_log.csv" | cut -d, -f1) steps in its log)"
+log=$(ls "$dst"/*train_log.csv | head -n 1)
+echo "$verb: $src -> $dst ($(tail -n 1 "$log" | cut -d, -f1) steps in its log)"

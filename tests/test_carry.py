@@ -34,6 +34,21 @@ def test_save_then_load_round_trips_the_resumable_files(tmp_path: Path) -> None:
     assert "250 steps" in loaded.stdout
 
 
+def test_a_goal_pretraining_run_is_carried_with_its_own_files(tmp_path: Path) -> None:
+    run = tmp_path / "goal"
+    run.mkdir()
+    files = {"goal_checkpoint.safetensors": b"\x00w", "goal_train_log.csv": b"step,q\n3000,1\n"}
+    for name, data in files.items():
+        (run / name).write_bytes(data)
+    root = tmp_path / "carry"
+    saved = _carry("save", str(run), "cheetah_goal", root=root)
+    assert saved.returncode == 0, saved.stderr
+    assert sorted(p.name for p in (root / "cheetah_goal").iterdir()) == sorted(files)
+    loaded = _carry("load", "cheetah_goal", str(tmp_path / "back"), root=root)
+    assert loaded.returncode == 0 and "3000 steps" in loaded.stdout, loaded.stderr
+    assert {n: (tmp_path / "back" / n).read_bytes() for n in files} == files
+
+
 def test_a_folder_without_a_checkpoint_is_refused(tmp_path: Path) -> None:
     out = _carry("save", str(tmp_path), "x", root=tmp_path / "carry")
     assert out.returncode == 2
