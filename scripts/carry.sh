@@ -30,5 +30,5 @@ mkdir -p "$dst"
 for f in $files; do
   cp "$src/$f" "$dst/$f.part" && mv "$dst/$f.part" "$dst/$f"
 done
-log=$(ls "$dst"/*train_log.csv | head -n 1)
+log=$dst/${files##* }  # the training log is each set's last file
 echo "$verb: $src -> $dst ($(tail -n 1 "$log" | cut -d, -f1) steps in its log)"
