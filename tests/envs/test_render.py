@@ -33,3 +33,17 @@ def test_locomotion_frames_render_offscreen(tmp_path: Path) -> None:
     assert gif.read_bytes()[:3] == b"GIF"
     with pytest.raises(FbilError, match="unsupported picture type"):
         save_frames(frames, tmp_path / "clip.bmp")
+
+
+def test_frames_without_the_sky_have_a_black_background() -> None:
+    """The report's strips drop the starry skybox (its noise is most of their bytes)."""
+    from fbil.envs.env import FbilEnv
+    from fbil.envs.render import render_states
+
+    env = FbilEnv("cheetah", "run")
+    env.reset(seed=0)
+    state = env.physics.get_state()[None]
+    (sky,) = render_states("cheetah", "run", state, (48, 64))
+    (plain,) = render_states("cheetah", "run", state, (48, 64), sky=False)
+    assert sky[:6].max() > 0 and plain[:6].max() == 0  # the top rows: sky, then black
+    assert (plain.max(axis=2) > 0).mean() > 0.1  # the body and the floor are drawn

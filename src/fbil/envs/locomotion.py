@@ -304,7 +304,7 @@ class Locomotion:
             len(strips), KEEP_FRAMES, figsize=(1.6 * KEEP_FRAMES, 1.3 * len(strips)), dpi=110
         )
         for row, (name, states) in zip(np.atleast_2d(axes), strips.items(), strict=True):
-            frames = render_states(self.domain, picture.task, states, (120, 160))
+            frames = render_states(self.domain, picture.task, states, (120, 160), sky=False)
             for ax, frame in zip(row, frames, strict=False):
                 ax.imshow(frame)
                 ax.set_xticks([])

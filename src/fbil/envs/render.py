@@ -163,15 +163,25 @@ def locomotion_frames(
 
 
 def render_states(
-    domain: str, task: str, states: np.ndarray, size: tuple[int, int] = (240, 320)
+    domain: str,
+    task: str,
+    states: np.ndarray,
+    size: tuple[int, int] = (240, 320),
+    sky: bool = True,
 ) -> list[np.ndarray]:
-    """One frame (H, W, 3) per physics state, from the domain's camera."""
+    """One frame (H, W, 3) per physics state, from the domain's camera. `sky=False` draws
+    a black background instead of the starry skybox, whose noise is most of a committed
+    frame strip's bytes (a palette PNG of a cheetah frame: 10.6 KB with it, 3.3 KB without)."""
     env = FbilEnv(domain, task)
-    env._render_size = size
+    h, w = size
+    flags = None if sky else {"skybox": False}
     frames = []
     for state in states:
         env.set_physics_state(state)
-        frames.append(env.render())
+        frame = env.physics.render(
+            h, w, camera_id=env.domain.camera_id, render_flag_overrides=flags
+        )
+        frames.append(np.asarray(frame))
     return frames
 
 
