@@ -199,6 +199,7 @@ def test_auto_budget_is_the_one_measured_for_the_method_on_the_domain() -> None:
     assert resolve_auto("auto", "iqlearn", "walker") == "cpu,sac.steps=200000"
     assert resolve_auto("auto", "otr", "cheetah") == "cpu@6,td3.clamp_values=true"
     assert resolve_auto("auto", "sqil", "cheetah") == "cpu,sac.clamp_values=true,sac.steps=200000"
+    assert resolve_auto("auto", "iqlearn", "cheetah") == "cpu,sac.steps=200000"  # no clamp
     assert resolve_auto("auto,td3.tau=0.02", "oril", "walker") == "cpu@5,td3.tau=0.02"
     assert resolve_auto("auto", "td3il", "point_mass_maze") == "cpu"  # none measured
     assert resolve_auto("auto", "bc", "walker") == "cpu"

@@ -64,6 +64,8 @@ _LOCOMOTION = Locomotion(
             ("td3il", "oril", "oril_o", "oril_oo", "otr"), "cpu@6,td3.clamp_values=true"
         ),
         "sqil": "cpu,sac.clamp_values=true,sac.steps=200000",
+        # iqlearn's SAC has no reward to clamp; its length is the SAC oracle's, as walker's
+        "iqlearn": "cpu,sac.steps=200000",
     },
 )
 
