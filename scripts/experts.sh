@@ -11,6 +11,8 @@
 #   DATA=DIR         the domain's unsupervised dataset, relabeled with the task, as half of
 #                    each minibatch from the start (docs/walker.md, "What walker teaches",
 #                    lesson 4); unset: the replay buffer only (walker's recorded experts)
+#   DEMO_PHYSICS=first  keeps physics states for the first demo of each file only (the one
+#                    pictures draw; `fbil demos --physics`); default all (exact relabeling)
 #   DRY=1            prints the commands without running them
 # Resumable: a finished expert is skipped, an interrupted one continues from its checkpoint.
 set -euo pipefail
@@ -46,7 +48,9 @@ for task in $TASKS; do
       --eval-every 20000 --threads "$THREADS" --set nstep=3 --set precision="$PRECISION" \
       ${extra[@]+"${extra[@]}"}
   fi
-  [ -f "$DEMOS/$task.npz" ] || run fbil demos "$out" --episodes 20 --out "$DEMOS/$task.npz" --seed 0
+  physics=(--physics "${DEMO_PHYSICS:-all}")
+  [ -f "$DEMOS/$task.npz" ] || run fbil demos "$out" --episodes 20 --out "$DEMOS/$task.npz" \
+    --seed 0 "${physics[@]}"
   [ -f "$DEMOS/${task}_shifted.npz" ] || run fbil demos "$out" --episodes 10 \
-    --out "$DEMOS/${task}_shifted.npz" --starts shifted --seed 0
+    --out "$DEMOS/${task}_shifted.npz" --starts shifted --seed 0 "${physics[@]}"
 done

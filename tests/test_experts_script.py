@@ -49,6 +49,17 @@ def test_prior_data_budgets_and_task_subsets_reach_the_expert_command(tmp_path: 
     assert "--steps 300000" in experts[0] and "--steps 500000" in experts[1]
 
 
+def test_demo_physics_reaches_both_demo_commands(tmp_path: Path) -> None:
+    """DEMO_PHYSICS=first keeps one demo's physics per file (quadruped's large files);
+    by default every demo keeps them."""
+    first = _dry("experts.sh", "quadruped", str(tmp_path), str(tmp_path), TASKS="stand",
+                 DEMO_PHYSICS="first")  # fmt: skip
+    default = _dry("experts.sh", "quadruped", str(tmp_path), str(tmp_path), TASKS="stand")
+    for out, value in ((first, "first"), (default, "all")):
+        demos = [c for c in _commands(out) if c.startswith("fbil demos ")]
+        assert len(demos) == 2 and all(c.endswith(f"--physics {value}") for c in demos)
+
+
 def test_walker_script_is_the_generic_one_for_walker(tmp_path: Path) -> None:
     args = (str(tmp_path / "runs"), str(tmp_path / "demos"), "1")
     walker = _dry("walker_experts.sh", *args)

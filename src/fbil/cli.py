@@ -462,7 +462,14 @@ def _cmd_expert(args: argparse.Namespace) -> int:
 def _cmd_demos(args: argparse.Namespace) -> int:
     from fbil.agents.expert import make_demos
 
-    demos = make_demos(args.expert_dir, args.episodes, args.out, start=args.starts, seed=args.seed)
+    demos = make_demos(
+        args.expert_dir,
+        args.episodes,
+        args.out,
+        start=args.starts,
+        seed=args.seed,
+        physics=args.physics,
+    )
     meta = demos.metadata
     if args.json:
         print(json.dumps({"out": args.out, **meta}))
@@ -917,6 +924,12 @@ def _add_demos(sub: Any) -> None:
     p.add_argument("--out", required=True, help="demo file (.npz)")
     p.add_argument(
         "--starts", default="standard", help="where episodes start: standard or shifted (App. E.5)"
+    )
+    p.add_argument(
+        "--physics",
+        default="all",
+        help="which demos keep their physics states: all (exact reward relabeling), first "
+        "(only the one pictures draw; a smaller file), or none",
     )
 
 

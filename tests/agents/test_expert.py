@@ -69,6 +69,12 @@ def test_demos_round_trip_with_returns(expert_dir: Path, tmp_path: Path) -> None
         [t.reward.sum() for t in back.trajectories], demos.metadata["returns"], rtol=1e-5
     )
     assert back.metadata["task"] == "loop" and back.metadata["start"] == "standard"
+    make_demos(expert_dir, 3, tmp_path / "f.npz", seed=1, physics="first")
+    first = Demos.load(tmp_path / "f.npz")
+    assert [t.physics is None for t in first.trajectories] == [False, True, True]
+    np.testing.assert_array_equal(first.trajectories[0].physics, back.trajectories[0].physics)
+    with pytest.raises(FbilError, match="unknown --physics 'some'; valid: all, first, none"):
+        make_demos(expert_dir, 3, tmp_path / "x.npz", physics="some")
 
 
 def test_shifted_maze_demos_start_in_the_top_right_room(expert_dir: Path, tmp_path: Path) -> None:

@@ -110,6 +110,28 @@ def _write_npz(path: Path, **arrays: np.ndarray) -> Path:
     return path
 
 
+def _physics_file(path: Path, physics_rows: int, of: list[int] | None) -> Path:
+    """Two trajectories of 5 and 6 states with `physics_rows` physics rows (`of`: whose)."""
+    arrays = {"observation": np.zeros((11, 4)), "offsets": np.array([0, 5, 11])}
+    arrays["physics"] = np.zeros((physics_rows, 3))
+    if of is not None:
+        arrays["physics_of"] = np.array(of)
+    return _write_npz(path, **arrays)
+
+
+def test_a_demo_file_can_keep_physics_for_some_trajectories_only(tmp_path: Path) -> None:
+    """`fbil demos --physics first` keeps the physics states of the demo pictures draw:
+    they load back on that trajectory, and the others load without any."""
+    obs = [np.full((5, 4), i, np.float32) for i in range(3)]
+    demos = from_arrays(obs)
+    demos.trajectories[1].physics = np.arange(15.0).reshape(5, 3)
+    Demos(demos.trajectories, {}).save(tmp_path / "d.npz")
+    back = Demos.load(tmp_path / "d.npz")
+    assert [t.physics is None for t in back.trajectories] == [True, False, True]
+    np.testing.assert_array_equal(back.trajectories[1].physics, np.arange(15.0).reshape(5, 3))
+    np.testing.assert_array_equal(back.trajectories[2].observation, obs[2])
+
+
 @pytest.mark.parametrize(
     "write, message",
     [
@@ -119,6 +141,9 @@ def _write_npz(path: Path, **arrays: np.ndarray) -> Path:
         (lambda p: _write_npz(p, observation=np.zeros((11, 4)), offsets=[0, 50]), "rise from 0"),
         (lambda p: _write_npz(p, observation=np.zeros((11, 4)), offsets=[0, 6, 3, 11]), "rise"),
         (lambda p: _write_npz(p, observation=np.zeros((11, 4)), offsets=[0.0, 11.0]), "integer"),
+        (lambda p: _physics_file(p, physics_rows=10, of=None), "physics rows do not match"),
+        (lambda p: _physics_file(p, physics_rows=5, of=[2]), "physics rows do not match"),
+        (lambda p: _physics_file(p, physics_rows=5, of=[0, 0]), "physics rows do not match"),
     ],
 )
 def test_damaged_demo_files_are_refused_in_one_line(tmp_path: Path, write, message: str) -> None:

@@ -530,17 +530,26 @@ def shifted_starts(domain: str, agent: TD3, task: str, seeds: list[int]) -> np.n
     return starts
 
 
+DEMO_PHYSICS = ("all", "first", "none")
+
+
 def make_demos(
     expert_dir: str | Path,
     episodes: int,
     out: str | Path,
     start: str = "standard",
     seed: int = 0,
+    physics: str = "all",
 ) -> Demos:
-    agent, meta = load_expert(expert_dir)
-    domain, task = meta["domain"], meta["task"]
+    """`episodes` expert rollouts as a demo file. `physics` says which demos keep their
+    physics states: all (exact reward relabeling, pictures), first (only the one the
+    report and `fbil demo` draw: a much smaller file), or none."""
     if start not in ("standard", "shifted"):
         raise FbilError(f"unknown --starts {start!r}; valid: standard, shifted")
+    if physics not in DEMO_PHYSICS:
+        raise FbilError(f"unknown --physics {physics!r}; valid: {', '.join(DEMO_PHYSICS)}")
+    agent, meta = load_expert(expert_dir)
+    domain, task = meta["domain"], meta["task"]
     seeds = [seed * 1_000_003 + 200_000 + i for i in range(episodes)]
     starts = shifted_starts(domain, agent, task, seeds) if start == "shifted" else None
     ep = BatchedEnv(domain, task, episodes).rollout(ExpertPolicy(agent), seeds, start_states=starts)
@@ -554,5 +563,7 @@ def make_demos(
             "seed": seed,
         },
     )
+    for t in demos.trajectories[{"all": len(demos), "first": 1, "none": 0}[physics] :]:
+        t.physics = None
     demos.save(out)
     return demos

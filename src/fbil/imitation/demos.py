@@ -2,8 +2,9 @@
 
 Arrays are concatenated over trajectories with `offsets` marking where each trajectory's
 states begin: `observation` (sum of T_i + 1 rows), optional `action` (sum of T_i rows),
-optional `reward` (sum of T_i) and `physics` (like observation); `metadata` is a JSON
-string (domain, task, source, expert returns, ...).
+optional `reward` (sum of T_i) and `physics` (like observation, or only the rows of the
+trajectories listed in `physics_of`); `metadata` is a JSON string (domain, task, source,
+expert returns, ...).
 """
 
 from __future__ import annotations
@@ -98,10 +99,15 @@ class Demos:
             "offsets": np.cumsum([0] + [len(t.observation) for t in self.trajectories]),
             "metadata": np.array(json.dumps(self.metadata)),
         }
-        for key in ("action", "reward", "physics"):
+        for key in ("action", "reward"):
             parts = [getattr(t, key) for t in self.trajectories]
             if all(p is not None for p in parts):
                 arrays[key] = np.concatenate(parts)
+        kept = [i for i, t in enumerate(self.trajectories) if t.physics is not None]
+        if kept:
+            arrays["physics"] = np.concatenate([self.trajectories[i].physics for i in kept])
+            if len(kept) < len(self.trajectories):
+                arrays["physics_of"] = np.asarray(kept)  # the trajectories that keep theirs
         path.parent.mkdir(parents=True, exist_ok=True)
         tmp = path.with_name(f".{path.name}.tmp")
         with io.BytesIO() as bs:
@@ -117,6 +123,7 @@ class Demos:
         offsets = _checked_offsets(path, data)
         steps = np.diff(offsets) - 1
         act_offsets = np.concatenate([[0], np.cumsum(steps)])
+        physics = _physics_by_trajectory(path, data, offsets)
         trajs = []
         for i in range(len(offsets) - 1):
             s, e = offsets[i], offsets[i + 1]
@@ -126,7 +133,7 @@ class Demos:
                     observation=data["observation"][s:e],
                     action=data["action"][a:b] if "action" in data else None,
                     reward=data["reward"][a:b] if "reward" in data else None,
-                    physics=data["physics"][s:e] if "physics" in data else None,
+                    physics=physics[i],
                 )
             )
         try:
@@ -170,6 +177,31 @@ def _checked_offsets(path: Path, data: dict[str, np.ndarray]) -> np.ndarray:
             f"{rows} observation rows; the file is damaged or was not written by fbil"
         )
     return offsets.astype(int)
+
+
+def _physics_by_trajectory(
+    path: Path, data: dict[str, np.ndarray], offsets: np.ndarray
+) -> list[np.ndarray | None]:
+    """Each trajectory's physics states: all of them (`physics` alone), those `physics_of`
+    names (a file that keeps physics for some demos only, `fbil demos --physics first`),
+    or none."""
+    n = len(offsets) - 1
+    if "physics" not in data:
+        return [None] * n
+    of = data["physics_of"] if "physics_of" in data else np.arange(n)
+    lengths = np.diff(offsets)
+    fits = of.ndim == 1 and np.issubdtype(of.dtype, np.integer) and len(of) > 0
+    fits = fits and bool(np.all(np.diff(of) > 0)) and of[0] >= 0 and of[-1] < n
+    if not fits or len(data["physics"]) != lengths[of].sum():
+        raise FbilError(
+            f"{path}: its physics rows do not match the trajectories they belong to; the "
+            "file is damaged or was not written by fbil"
+        )
+    out: list[np.ndarray | None] = [None] * n
+    starts = np.concatenate([[0], np.cumsum(lengths[of])])
+    for j, i in enumerate(of):
+        out[int(i)] = data["physics"][starts[j] : starts[j + 1]]
+    return out
 
 
 def from_arrays(
