@@ -462,14 +462,8 @@ def _cmd_expert(args: argparse.Namespace) -> int:
 def _cmd_demos(args: argparse.Namespace) -> int:
     from fbil.agents.expert import make_demos
 
-    demos = make_demos(
-        args.expert_dir,
-        args.episodes,
-        args.out,
-        start=args.starts,
-        seed=args.seed,
-        physics=args.physics,
-    )
+    what = (args.expert_dir, args.episodes, args.out)
+    demos = make_demos(*what, start=args.starts, seed=args.seed, physics=args.physics)
     meta = demos.metadata
     if args.json:
         print(json.dumps({"out": args.out, **meta}))
