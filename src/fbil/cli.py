@@ -578,6 +578,7 @@ def _cmd_benchmark(args: argparse.Namespace) -> int:
         first_draw=args.first_draw,
     )
     before = len(read_results(args.out))
+    print(benchmark_plan(jobs, before, args.out), flush=True)
     bar = progress_bar(
         total=len(jobs),
         initial=min(before, len(jobs)),
@@ -597,6 +598,15 @@ def _cmd_benchmark(args: argparse.Namespace) -> int:
     bar.close()
     print(f"{len(new)} jobs run, {len(jobs) - len(new)} already in {args.out}")
     return 0
+
+
+def benchmark_plan(jobs: Sequence[Any], before: int, out: str) -> str:
+    """The line `fbil benchmark` prints first: how many jobs, how many lines are already
+    in `out`, and the budget each training method runs at (never `auto`), so a wrong budget
+    shows before hours of training instead of in the first results line."""
+    budgets = {j.method: j.budget for j in jobs if j.budget}
+    shown = "".join(f"; {m} at {b}" for m, b in budgets.items())
+    return f"benchmark: {len(jobs)} jobs, {before} lines already in {out}{shown}"
 
 
 def _cmd_demo(args: argparse.Namespace) -> int:

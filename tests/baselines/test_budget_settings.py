@@ -222,6 +222,11 @@ def test_benchmark_jobs_hold_the_resolved_budget(tmp_path: Path) -> None:
         data=tmp_path, budget="auto",
     )  # fmt: skip
     assert {j.method: j.budget for j in jobs} == {"td3il": "cpu@5", "bc": "cpu", "erfb": None}
+    from fbil.cli import benchmark_plan
+
+    assert benchmark_plan(jobs, 1, "r.jsonl") == (
+        "benchmark: 3 jobs, 1 lines already in r.jsonl; td3il at cpu@5; bc at cpu"
+    )
 
 
 @pytest.mark.parametrize("domain", ["point_mass_maze", "walker", "cheetah", "quadruped"])
