@@ -68,7 +68,9 @@ def main(argv: list[str] | None = None) -> int:
         if not lookaheads or min(lookaheads) < 1:
             raise ValueError
     except ValueError:
-        print(f"error: --lookaheads must be integers >= 1, got {args.lookaheads!r}")
+        print(
+            f"error: --lookaheads must be integers >= 1, got {args.lookaheads!r}", file=sys.stderr
+        )
         return 2
     try:
         model = GoalModel.load(args.goal_model)
@@ -85,7 +87,7 @@ def main(argv: list[str] | None = None) -> int:
             shown = "  ".join(f"k={k}: {100 * np.mean(s):5.1f}" for k, s in per_task[task].items())
             print(f"{task:16s} {shown}", flush=True)
     except FbilError as exc:
-        print(f"error: {exc}")
+        print(f"error: {exc}", file=sys.stderr)
         return 2
     means = {
         str(k): [float(np.mean([per_task[t][str(k)][d] for t in tasks])) for d in range(args.draws)]
