@@ -31,5 +31,5 @@ def test_bad_lookaheads_are_one_line_and_exit_2(capsys: pytest.CaptureFixture[st
             "--demos", "x", "--lookaheads", "0,10"]  # fmt: skip
     assert sweep.main(args) == 2
     assert (
-        capsys.readouterr().out.strip() == "error: --lookaheads must be integers >= 1, got '0,10'"
+        capsys.readouterr().err.strip() == "error: --lookaheads must be integers >= 1, got '0,10'"
     )
