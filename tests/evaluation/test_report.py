@@ -113,6 +113,9 @@ def test_domain_report_shows_families_baseline_returns_and_times(tmp_path: Path)
     assert "| bcfb | fb-il | 30 s | 30 | 4 | 1m |" in text
     assert (tmp_path / "report" / "time_to_policy.png").stat().st_size > 1000
     assert "## Over domains" not in text
+    # (d) the score table gives the same medians in the same units.
+    assert "| bcfb | behavioral cloning | 30.0 | 0.0 | 2 | 76.5 | 30 s |" in text
+    assert text.count("| 17.5 min |") == 2 and text.count("| 3.5 ms |") == 2
 
 
 def test_one_run_timing_next_to_the_results_adds_its_table(tmp_path: Path) -> None:

@@ -530,14 +530,14 @@ def _setting_section(
     paper_scores = PAPER_SCORES.get(summary["domain"], {})
     slug = setting.replace(", ", "_").replace("=", "")
     lines = [f"## Imitation score ({setting})", ""]
-    lines += ["| method | principle | score (%) | ±95% | draws | paper (%) | time to policy (s) |"]
+    lines += ["| method | principle | score (%) | ±95% | draws | paper (%) | time to policy |"]
     lines += ["|---|---|---|---|---|---|---|"]
     for m in names:
         r = methods[m]
         lines.append(
             f"| {m} | {principle_of(m)} | "
             f"{_fmt(100 * r['score'])} | {_fmt(100 * r['ci95'])} | {_draws(r)} | "
-            f"{_fmt(paper_scores.get(m, float('nan')))} | {r['seconds_median']:.3f} |"
+            f"{_fmt(paper_scores.get(m, float('nan')))} | {duration(r['seconds_median'])} |"
         )
     fig = _score_figure(summary, setting, out_dir / f"scores_{slug}.png")
     lines += ["", f"![scores]({fig.name})", ""]
