@@ -182,6 +182,22 @@ def test_a_resumed_pretraining_equals_an_uninterrupted_one(
     assert resumed.metadata["steps"] == 40 and resumed.config.epsilon == whole.config.epsilon
 
 
+def test_a_checkpoint_from_before_a_setting_existed_resumes_at_its_default(
+    fixture_data: Path, tmp_path: Path
+) -> None:
+    dataset = load_dataset(fixture_data)
+    cfg = dataclasses.replace(SMALL, steps=10, log_every=10)
+    trainer = GoalTD3Trainer(cfg, dataset)
+    trainer.fit(tmp_path / "old", progress=False)
+    state = trainer.state()
+    for key in ("arch", "precision"):  # as a checkpoint saved before session 57
+        del state["train_config"][key]
+    GoalTD3Trainer(dataclasses.replace(cfg, steps=20), dataset).load(state, tmp_path)
+    bf16 = dataclasses.replace(cfg, steps=20, precision="bf16")
+    with pytest.raises(FbilError, match=r"other settings \(precision\)"):
+        GoalTD3Trainer(bf16, dataset).load(state, tmp_path)
+
+
 def test_the_goal_model_folder_loads_back_and_refuses_mismatches(
     fixture_data: Path, smoke_model_dir: Path, tmp_path: Path
 ) -> None:

@@ -268,7 +268,10 @@ class GoalTD3Trainer:
     def load(self, state: dict[str, Any], where: Path) -> None:
         saved = {k: v for k, v in state["train_config"].items() if k not in RESUMABLE}
         here = {k: v for k, v in dataclasses.asdict(self.cfg).items() if k not in RESUMABLE}
-        changed = sorted(k for k in here if saved.get(k) != here[k])
+        # A setting added after the checkpoint was saved ran at its default then (e.g.
+        # arch and precision, session 57: every earlier run was an fp32 MLP).
+        default = {f.name: f.default for f in dataclasses.fields(GoalTD3Config)}
+        changed = sorted(k for k in here if saved.get(k, default[k]) != here[k])
         if changed or state["model_config"]["domain"] != self.mcfg.domain:
             what = ", ".join(changed) or "domain"
             raise FbilError(f"{where}: saved with other settings ({what}); use the same preset")
