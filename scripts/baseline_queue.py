@@ -26,6 +26,7 @@ from pathlib import Path
 from typing import Any
 
 from fbil.baselines import BASELINES
+from fbil.checkpoint import atomic_write_text
 from fbil.envs.registry import get_domain
 from fbil.errors import FbilError
 from fbil.evaluation.benchmark import read_results
@@ -139,7 +140,14 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     print(table(rows))
     if args.json:
-        args.json.write_text(json.dumps(rows, indent=1) + "\n")
+        try:
+            atomic_write_text(args.json, json.dumps(rows, indent=1) + "\n")
+        except OSError as e:
+            print(
+                f"error: cannot write {args.json} ({e.strerror}); pick a writable path",
+                file=sys.stderr,
+            )
+            return 2
     return 0
 
 

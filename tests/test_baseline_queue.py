@@ -3,6 +3,8 @@ the rest costs by the method's own measured lines."""
 
 from __future__ import annotations
 
+import json
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -51,3 +53,17 @@ def test_an_unknown_domain_is_one_line_and_exit_2(capsys: pytest.CaptureFixture)
     assert queue.main(["--domains", "cheeta"]) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith("error: ") and "cheeta" in err and "\n" not in err
+
+
+def test_the_json_file_is_written_whole_or_refused_in_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture
+) -> None:
+    out = tmp_path / "queue.json"
+    assert queue.main(["--domains", "cheetah", "--json", str(out)]) == 0
+    rows = json.loads(out.read_text())
+    assert {r["method"] for r in rows} >= {"td3il", "goal_td3"}
+    assert all(r["domain"] == "cheetah" and r["jobs"] == 8 for r in rows)
+    capsys.readouterr()
+    assert queue.main(["--domains", "cheetah", "--json", str(out / "q.json")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("error: cannot write") and "\n" not in err
