@@ -64,6 +64,7 @@ def test_the_json_file_is_written_whole_or_refused_in_one_line(
     assert {r["method"] for r in rows} >= {"td3il", "goal_td3"}
     assert all(r["domain"] == "cheetah" and r["jobs"] == 8 for r in rows)
     capsys.readouterr()
+    # a file where a folder should be: cannot be written
     assert queue.main(["--domains", "cheetah", "--json", str(out / "q.json")]) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith("error: cannot write") and "\n" not in err
