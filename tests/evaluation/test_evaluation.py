@@ -292,3 +292,19 @@ def test_the_ray_backend_runs_the_same_grid(
     local = run_benchmark(jobs, tmp_path / "local.jsonl")
     remote = run_benchmark(jobs, tmp_path / "ray.jsonl", workers=1, backend="ray")
     assert [r["returns"] for r in remote] == [r["returns"] for r in local]
+
+
+def test_only_the_lines_the_report_draws_keep_a_trajectory(
+    smoke_model_dir: Path, demos_dir: Path, tmp_path: Path
+) -> None:
+    """A trajectory is most of a line's bytes: the K = 1 standard grid's first draw keeps
+    one (the report draws it), K > 1 lines and later draws do not."""
+
+    def grid(draws: int, k: int) -> list[dict]:
+        jobs = make_jobs(
+            smoke_model_dir, demos_dir, "point_mass_maze", TASKS[:1], ["erfb"], draws, k, 1
+        )
+        return run_benchmark(jobs, tmp_path / f"k{k}.jsonl")
+
+    assert [("trajectory" in r, r["draw"]) for r in grid(2, 1)] == [(True, 0), (False, 1)]
+    assert ["trajectory" in r for r in grid(1, 2)] == [False]

@@ -26,7 +26,7 @@ from fbil.csvlog import last_wall_seconds, truncate_log
 from fbil.data import load_dataset
 from fbil.envs import BatchedEnv, DomainSpec, get_domain, get_task
 from fbil.errors import FbilError
-from fbil.imitation.demos import Demos, from_episodes
+from fbil.imitation.demos import Demos, check_physics, from_episodes
 from fbil.progress import progress_bar
 from fbil.stopping import StopSignals
 
@@ -530,9 +530,6 @@ def shifted_starts(domain: str, agent: TD3, task: str, seeds: list[int]) -> np.n
     return starts
 
 
-DEMO_PHYSICS = ("all", "first", "none")
-
-
 def make_demos(
     expert_dir: str | Path,
     episodes: int,
@@ -546,8 +543,7 @@ def make_demos(
     report and `fbil demo` draw: a much smaller file), or none."""
     if start not in ("standard", "shifted"):
         raise FbilError(f"unknown --starts {start!r}; valid: standard, shifted")
-    if physics not in DEMO_PHYSICS:
-        raise FbilError(f"unknown --physics {physics!r}; valid: {', '.join(DEMO_PHYSICS)}")
+    check_physics(physics)  # before the rollouts, not after
     agent, meta = load_expert(expert_dir)
     domain, task = meta["domain"], meta["task"]
     seeds = [seed * 1_000_003 + 200_000 + i for i in range(episodes)]
@@ -563,7 +559,6 @@ def make_demos(
             "seed": seed,
         },
     )
-    for t in demos.trajectories[{"all": len(demos), "first": 1, "none": 0}[physics] :]:
-        t.physics = None
+    demos = demos.keep_physics(physics)
     demos.save(out)
     return demos

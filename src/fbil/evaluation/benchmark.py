@@ -330,12 +330,18 @@ def _add_result(row: dict[str, Any], job: Job, r: Any) -> None:
         row["fit"] = r.fit
     pictures = get_domain(job.domain).hooks.pictures
     kept = None
-    if pictures is not None and job.draw == 0:
+    if pictures is not None and drawn_by_report(row):
         kept = pictures.keep(r.trajectory, r.physics)
     if kept is not None:
         # What the domain's report picture needs of the first evaluation episode, per
         # (task, method): the maze's x-y path (every 2nd step), locomotion's frames.
         row["trajectory"] = kept
+
+
+def drawn_by_report(row: dict[str, Any]) -> bool:
+    """Whether `fbil report` draws this line's first episode: the first draw of the
+    standard K = 1 grid. Other lines keep no trajectory (it is most of a line's bytes)."""
+    return row["draw"] == 0 and row["k"] == 1 and row["demo_set"] == "standard"
 
 
 def _init_worker(threads: int) -> None:

@@ -28,7 +28,7 @@ import numpy as np
 from fbil.checkpoint import atomic_write_text
 from fbil.envs import max_return
 from fbil.errors import FbilError
-from fbil.evaluation.benchmark import read_results
+from fbil.evaluation.benchmark import drawn_by_report, read_results
 from fbil.evaluation.budget_curve import curve_section, find_curve, read_curve
 from fbil.evaluation.families import (
     duration,
@@ -202,7 +202,7 @@ def _trajectory_figures(domain: str, rows: Sequence[dict[str, Any]], out_dir: Pa
     by_task: dict[str, dict[str, Any]] = defaultdict(dict)
     demo_files: dict[str, str] = {}
     for r in rows:
-        if r.get("trajectory") and r["demo_set"] == "standard" and r["k"] == 1:
+        if r.get("trajectory") and drawn_by_report(r):
             by_task[r["task"]][r["method"]] = np.asarray(r["trajectory"])
             demo_files[r["task"]] = r["demos"]
     lines: list[str] = []

@@ -13,13 +13,22 @@ import io
 import json
 import zipfile
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from fbil.errors import FbilError
+
+DEMO_PHYSICS = ("all", "first", "none")  # which demos of a file keep their physics states
+
+
+def check_physics(which: str) -> str:
+    """`which` if it names a DEMO_PHYSICS choice, else one FbilError line."""
+    if which not in DEMO_PHYSICS:
+        raise FbilError(f"unknown --physics {which!r}; valid: {', '.join(DEMO_PHYSICS)}")
+    return which
 
 
 @dataclass
@@ -88,6 +97,19 @@ class Demos:
                 if not np.all(np.isfinite(act)):
                     raise FbilError(f"{where}: action contains NaN or inf")
         return self
+
+    def keep_physics(self, which: str) -> Demos:
+        """The same demos with physics states kept for `which` of them: all (exact reward
+        relabeling), first (only the demo the report and `fbil demo` draw; a file about
+        half the size) or none. Everything else is shared, not copied."""
+        kept = {"all": len(self), "first": 1, "none": 0}[check_physics(which)]
+        missing = [i for i, t in enumerate(self.trajectories[:kept]) if t.physics is None]
+        if missing:
+            raise FbilError(f"demo {missing[0]} has no physics states to keep (--physics {which})")
+        trajs = [
+            t if i < kept else replace(t, physics=None) for i, t in enumerate(self.trajectories)
+        ]
+        return Demos(trajs, dict(self.metadata))
 
     # -- files ----------------------------------------------------------------------------
     def save(self, path: str | Path) -> Path:
