@@ -6,6 +6,9 @@ set -euo pipefail
 #                                    and goal_train_log.csv) to carry/NAME/ (commit it);
 #   scripts/carry.sh load NAME RUN   puts them back in RUN, where `--resume` (or the script
 #                                    that started the run) continues exactly.
+# RUN may also be a benchmark's fit folder (`runs/baselines/.OUT.jsonl.fits`): its saved
+# fits (`*.safetensors`, one per job in flight, each naming its job, settings and data) go
+# and come back alike, and the same `fbil benchmark --out OUT.jsonl` resumes them.
 # Replay buffers, snapshots and datasets are not carried: datasets are regenerated from
 # their manifests' commands. Each committed checkpoint stays in git history (~10 MB at
 # maze size): carry only runs that will be continued. CARRY_DIR (default: the repository's
@@ -23,6 +26,11 @@ esac
 # config is inside its checkpoint until it ends).
 files="checkpoint.safetensors config.json train_log.csv"
 [ -f "$src/goal_checkpoint.safetensors" ] && files="goal_checkpoint.safetensors goal_train_log.csv"
+fits=""  # neither: a benchmark's fit folder, or its carried copy
+if [ ! -f "$src/checkpoint.safetensors" ] && [ ! -f "$src/goal_checkpoint.safetensors" ]; then
+  fits=$(cd "$src" 2>/dev/null && ls -- *.safetensors 2>/dev/null | tr '\n' ' ' || true)
+  [ -z "$fits" ] || files=$fits
+fi
 for f in $files; do
   [ -f "$src/$f" ] || { echo "error: $src/$f is missing; is $src a training run's folder?" >&2; exit 2; }
 done
@@ -30,5 +38,9 @@ mkdir -p "$dst"
 for f in $files; do
   cp "$src/$f" "$dst/$f.part" && mv "$dst/$f.part" "$dst/$f"
 done
+if [ -n "$fits" ]; then
+  echo "$verb: $src -> $dst ($(echo $fits | wc -w) saved fit(s): $fits)"
+  exit 0
+fi
 log=$dst/${files##* }  # the training log is each set's last file
 echo "$verb: $src -> $dst ($(tail -n 1 "$log" | cut -d, -f1) steps in its log)"

@@ -55,3 +55,23 @@ def test_a_folder_without_a_checkpoint_is_refused(tmp_path: Path) -> None:
     assert out.stderr.count("\n") == 1 and "checkpoint.safetensors is missing" in out.stderr
     assert not (tmp_path / "carry").exists()
     assert _carry("push", "a", "b", root=tmp_path).returncode == 2
+
+
+def test_a_benchmarks_saved_fits_are_carried_and_put_back(tmp_path: Path) -> None:
+    fits = tmp_path / "runs" / ".walker_iqlearn_s0.jsonl.fits"
+    fits.mkdir(parents=True)
+    files = {
+        "iqlearn_run_d0_s0_ab12.safetensors": b"\x00a",
+        "td3il_walk_d1_s0_cd34.safetensors": b"b",
+    }
+    for name, data in files.items():
+        (fits / name).write_bytes(data)
+    (fits / ".iqlearn_run_d0_s0_ab12.safetensors.tmp").write_bytes(b"cut")  # not carried
+    root = tmp_path / "carry"
+    saved = _carry("save", str(fits), "walker_iqlearn_fit", root=root)
+    assert saved.returncode == 0 and "2 saved fit(s)" in saved.stdout, saved.stderr
+    assert sorted(p.name for p in (root / "walker_iqlearn_fit").iterdir()) == sorted(files)
+    back = tmp_path / "fresh" / ".walker_iqlearn_s0.jsonl.fits"
+    loaded = _carry("load", "walker_iqlearn_fit", str(back), root=root)
+    assert loaded.returncode == 0, loaded.stderr
+    assert {n: (back / n).read_bytes() for n in files} == files
