@@ -14,7 +14,6 @@ and after, new sha256); `--json` writes the same as a list.
 from __future__ import annotations
 
 import argparse
-import hashlib
 import json
 import sys
 from pathlib import Path
@@ -22,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from fbil.artifacts import sha256
 from fbil.checkpoint import atomic_write_text
 from fbil.errors import FbilError
 from fbil.imitation.demos import DEMO_PHYSICS, Demos, check_physics
@@ -43,8 +43,8 @@ def _same(a: Demos, b: Demos) -> str | None:
 
 def slim(path: Path, which: str) -> dict[str, Any]:
     """Rewrite `path` keeping physics for `which` demos; what changed, as one record."""
-    before = path.stat().st_size if path.is_file() else 0
     demos = Demos.load(path)
+    before = path.stat().st_size
     try:
         kept = demos.keep_physics(which)
     except FbilError as e:
@@ -59,10 +59,9 @@ def slim(path: Path, which: str) -> dict[str, Any]:
         tmp.replace(path)
     finally:
         tmp.unlink(missing_ok=True)
-    sha = hashlib.sha256(path.read_bytes()).hexdigest()
     kept_n = sum(t.physics is not None for t in again.trajectories)
     return {"file": str(path), "bytes_before": before, "bytes_after": path.stat().st_size,
-            "demos": len(again), "physics_kept": kept_n, "sha256": sha}  # fmt: skip
+            "demos": len(again), "physics_kept": kept_n, "sha256": sha256(path)}  # fmt: skip
 
 
 def main(argv: list[str] | None = None) -> int:
